@@ -1,0 +1,97 @@
+"""Controller specifications: what the episode kernel runs for one robot.
+
+``Zero``, ``Sine`` and ``Table`` are open-loop; ``GraphArrays`` is a graph controller already
+flattened to arrays (the genome of :mod:`somite.brain.genome` compiles to it).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import bad
+
+
+@dataclass(frozen=True)
+class Zero:
+    """Every voxel at rest (actuation 0)."""
+
+
+@dataclass(frozen=True)
+class Sine:
+    """a_v(t) = amp * sin(2 pi freq t + phase * x_v); phase < 0 travels towards +x."""
+
+    freq: float = 1.0
+    amp: float = 1.0
+    phase: float = -1.0
+
+    def __post_init__(self) -> None:
+        for name in ("freq", "amp", "phase"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise bad(f"controller.{name}", value, "must be a finite number")
+        if self.freq < 0:
+            raise bad("controller.freq", self.freq, "must be zero or positive")
+
+
+@dataclass(frozen=True, eq=False)
+class Table:
+    """Actuation rows (L, V) replayed periodically: step k uses row k mod L."""
+
+    rows: np.ndarray
+
+    def __post_init__(self) -> None:
+        rows = np.asarray(self.rows, dtype=np.float64)
+        if rows.ndim != 2 or rows.shape[0] < 1:
+            raise bad("controller.rows", rows.shape, "expected a non-empty (steps, voxels) table")
+        if not np.all(np.isfinite(rows)):
+            raise bad("controller.rows", "non-finite", "actuation must be finite")
+        object.__setattr__(self, "rows", rows)
+
+
+@dataclass(frozen=True, eq=False)
+class GraphArrays:
+    """A graph controller as flat arrays: node kinds and references, edges by node index."""
+
+    node_kind: np.ndarray  # (N,) int32 SENSOR / HIDDEN / ACTUATOR
+    node_ref: np.ndarray  # (N,) int32 reading (sensor) or voxel (actuator), -1 otherwise
+    src: np.ndarray  # (E,) int32
+    dst: np.ndarray  # (E,) int32
+    weight: np.ndarray  # (E,)
+    bias: np.ndarray  # (E,)
+    labels: tuple = field(default=())
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.node_kind)
+
+    @property
+    def n_edges(self) -> int:
+        return len(self.src)
+
+
+_SINE = re.compile(r"^sine(?::(.*))?$")
+
+
+def parse_controller(text: str) -> Zero | Sine:
+    """``zero`` or ``sine[:freq=F,amp=A,phase=P]`` (any subset, defaults 1, 1, -1)."""
+    spec = str(text).strip()
+    if spec == "zero":
+        return Zero()
+    match = _SINE.match(spec)
+    if not match:
+        raise bad("controller", text, "use zero or sine:freq=F,amp=A,phase=P")
+    options: dict[str, float] = {}
+    for item in filter(None, (match.group(1) or "").split(",")):
+        key, _, value = item.partition("=")
+        key = key.strip()
+        if key not in ("freq", "amp", "phase"):
+            raise bad("controller", text, f"unknown sine parameter {key!r}")
+        try:
+            options[key] = float(value)
+        except ValueError:
+            raise bad(f"controller.{key}", value, "must be a number") from None
+    return Sine(**options)

@@ -1,0 +1,208 @@
+"""Sensor readings of one robot, computed once per control step (decisions.md, sensors).
+
+Readings are normalised to about [0, 1]: area ratio and velocity through the soft
+normalisation 0.5 + 0.5 tanh(2(2v - 1)) of their domain ([0.5, 1.5] and [-v_max, v_max]), touch
+as 0/1 (or its moving average), lidar as distance / range (1 when the ray hits nothing). Gaussian
+noise of standard deviation ``noise_sigma`` is added last, unclipped.
+
+The noise comes from a counter-based generator keyed by (robot seed, step, reading): it needs no
+state, so a robot's noise does not depend on its thread or on the other robots of its batch.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._jit import njit
+from .config import (
+    P_LIDAR0,
+    P_LIDAR_FRAME,
+    P_LIDAR_RANGE,
+    P_NOISE,
+    P_TOUCH_WINDOW,
+    P_VELOCITY_FRAME,
+    P_VELOCITY_MAX,
+    P_VELOCITY_WINDOW,
+)
+from .physics import segment_at
+from .system import R_AREA, R_LIDAR0, R_TOUCH, R_VX, R_VY
+
+AREA_LOW, AREA_HIGH = 0.5, 1.5
+VOXEL_AREA = 9.0
+
+_M1 = np.uint64(0xBF58476D1CE4E5B9)
+_M2 = np.uint64(0x94D049BB133111EB)
+_GOLDEN = np.uint64(0x9E3779B97F4A7C15)
+_STEP_KEY = np.uint64(0xD6E8FEB86659FD93)
+_S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
+
+
+@njit
+def _mix(z):
+    """splitmix64's finaliser: a bijective scramble of a 64-bit integer."""
+    z = (z ^ (z >> _S30)) * _M1
+    z = (z ^ (z >> _S27)) * _M2
+    return z ^ (z >> _S31)
+
+
+@njit
+def gaussian_pair(seed, step, pair):
+    """Two independent standard normal draws that depend only on (seed, step, pair)."""
+    key = _mix(np.uint64(seed) + np.uint64(step) * _STEP_KEY + np.uint64(pair) * _GOLDEN)
+    h1 = _mix(key)
+    h2 = _mix(key ^ _GOLDEN)
+    u1 = (float(h1 >> _S11) + 1.0) * 2.0**-53
+    u2 = float(h2 >> _S11) * 2.0**-53
+    radius = math.sqrt(-2.0 * math.log(u1))
+    return radius * math.cos(2.0 * math.pi * u2), radius * math.sin(2.0 * math.pi * u2)
+
+
+@njit
+def soft_normalise(x, low, high) -> float:
+    v = (x - low) / (high - low)
+    return 0.5 + 0.5 * math.tanh(2.0 * (2.0 * v - 1.0))
+
+
+@njit
+def voxel_state(n_voxels, corners, pos, vel, with_angle, out):
+    """Per voxel: centre x, y, velocity x, y, area ratio, angle -> ``out`` (V, 6).
+
+    The angle (0 unless ``with_angle``) is only needed by voxel-frame sensors.
+    """
+    for v in range(n_voxels):
+        cx = 0.0
+        cy = 0.0
+        vx = 0.0
+        vy = 0.0
+        area = 0.0
+        for k in range(4):
+            p = corners[v, k]
+            q = corners[v, (k + 1) % 4]
+            cx += pos[p, 0]
+            cy += pos[p, 1]
+            vx += vel[p, 0]
+            vy += vel[p, 1]
+            area += pos[p, 0] * pos[q, 1] - pos[q, 0] * pos[p, 1]
+        out[v, 5] = 0.0
+        if with_angle:
+            sw = corners[v, 0]
+            se = corners[v, 1]
+            ne = corners[v, 2]
+            nw = corners[v, 3]
+            # Mean direction of the bottom and top sides: the voxel's orientation.
+            ax = pos[se, 0] - pos[sw, 0] + pos[ne, 0] - pos[nw, 0]
+            ay = pos[se, 1] - pos[sw, 1] + pos[ne, 1] - pos[nw, 1]
+            out[v, 5] = math.atan2(ay, ax)
+        out[v, 0] = 0.25 * cx
+        out[v, 1] = 0.25 * cy
+        out[v, 2] = 0.25 * vx
+        out[v, 3] = 0.25 * vy
+        out[v, 4] = 0.5 * area / VOXEL_AREA
+
+
+@njit
+def raycast(x0, y0, dx, dy, reach, xs, ys, n) -> float:
+    """Distance along the unit ray (dx, dy) from (x0, y0) to the terrain, or ``reach``."""
+    x1 = x0 + dx * reach
+    first = segment_at(xs, n, min(x0, x1))
+    last_x = max(x0, x1)
+    best = reach
+    for j in range(first, n - 1):
+        if xs[j] > last_x:
+            break
+        sx = xs[j + 1] - xs[j]
+        sy = ys[j + 1] - ys[j]
+        denom = dx * sy - dy * sx
+        if denom == 0.0:
+            continue
+        rx = xs[j] - x0
+        ry = ys[j] - y0
+        t = (rx * sy - ry * sx) / denom
+        u = (rx * dy - ry * dx) / denom
+        if 0.0 <= t < best and 0.0 <= u <= 1.0:
+            best = t
+    return best
+
+
+@njit
+def update_histories(step, n_voxels, corners, contact, voxels, touch_hist, vel_hist, params):
+    """Store this step's touch and velocity (in the configured frame) in the ring buffers."""
+    wt = int(params[P_TOUCH_WINDOW])
+    wv = int(params[P_VELOCITY_WINDOW])
+    rotate = params[P_VELOCITY_FRAME] == 1.0
+    for v in range(n_voxels):
+        touching = 0.0
+        for k in range(4):
+            if contact[corners[v, k]]:
+                touching = 1.0
+        touch_hist[v, step % wt] = touching
+        vx = voxels[v, 2]
+        vy = voxels[v, 3]
+        if rotate:
+            c = math.cos(voxels[v, 5])
+            s = math.sin(voxels[v, 5])
+            vx, vy = vx * c + vy * s, -vx * s + vy * c
+        vel_hist[v, step % wv, 0] = vx
+        vel_hist[v, step % wv, 1] = vy
+
+
+@njit
+def _window_mean(hist, v, step, window, column) -> float:
+    count = min(step + 1, window)
+    total = 0.0
+    for i in range(count):
+        total += hist[v, (step - i) % window, column]
+    return total / count
+
+
+@njit
+def sense(step, seed, n_readings, codes, reading_voxel, voxels, touch_hist, vel_hist, rays,
+          xs, ys, n_terrain, params, readings):
+    """Fill ``readings`` (R,) for control step ``step`` (histories already updated)."""
+    wt = int(params[P_TOUCH_WINDOW])
+    wv = int(params[P_VELOCITY_WINDOW])
+    vmax = params[P_VELOCITY_MAX]
+    reach = params[P_LIDAR_RANGE]
+    sigma = params[P_NOISE]
+    for r in range(n_readings):
+        v = reading_voxel[r]
+        code = codes[r]
+        if code == R_AREA:
+            value = soft_normalise(voxels[v, 4], AREA_LOW, AREA_HIGH)
+        elif code == R_TOUCH:
+            count = min(step + 1, wt)
+            total = 0.0
+            for i in range(count):
+                total += touch_hist[v, (step - i) % wt]
+            value = total / count
+        elif code == R_VX or code == R_VY:
+            mean = _window_mean(vel_hist, v, step, wv, code - R_VX)
+            value = soft_normalise(mean, -vmax, vmax)
+        else:
+            ray = code - R_LIDAR0
+            dx = rays[ray, 0]
+            dy = rays[ray, 1]
+            if params[P_LIDAR_FRAME] == 1.0:
+                c = math.cos(voxels[v, 5])
+                s = math.sin(voxels[v, 5])
+                dx, dy = dx * c - dy * s, dx * s + dy * c
+            value = raycast(voxels[v, 0], voxels[v, 1], dx, dy, reach, xs, ys, n_terrain) / reach
+        readings[r] = value
+    if sigma > 0.0:
+        for pair in range((n_readings + 1) // 2):
+            z0, z1 = gaussian_pair(seed, step, pair)
+            readings[2 * pair] += sigma * z0
+            if 2 * pair + 1 < n_readings:
+                readings[2 * pair + 1] += sigma * z1
+
+
+@njit
+def lidar_rays(params):
+    """Unit direction (world frame, or voxel frame before rotation) of the 5 lidar rays."""
+    rays = np.empty((5, 2))
+    for k in range(5):
+        rays[k, 0] = math.cos(params[P_LIDAR0 + k])
+        rays[k, 1] = math.sin(params[P_LIDAR0 + k])
+    return rays

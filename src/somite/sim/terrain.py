@@ -1,0 +1,168 @@
+"""Terrains: piecewise-linear ground profiles, 2000 m long, with a steep wall at each end.
+
+Names follow the authors' simulator (original-system.md section 1.5, decisions.md): ``flat``,
+``hilly-H-W-SEED``, ``steppy-H-W-SEED``, ``uphill-DEG`` and ``downhill-DEG``. ``hilly`` is
+generated exactly as the authors' code does, with a re-implementation of ``java.util.Random``,
+so that ``hilly-1-10-42`` is the same profile in somite and in the original.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import bad
+
+LENGTH = 2000.0
+WALL_WIDTH = 10.0
+WALL_HEIGHT = 100.0
+STEP_RISER = 0.05
+"""Horizontal extent of a step's riser on steppy terrains, so that x stays strictly increasing."""
+
+
+class JavaRandom:
+    """``java.util.Random``: the 48-bit LCG with Java's nextDouble, nextInt and nextGaussian."""
+
+    _MULT = 0x5DEECE66D
+    _MASK = (1 << 48) - 1
+
+    def __init__(self, seed: int) -> None:
+        self._seed = (int(seed) ^ self._MULT) & self._MASK
+        self._next_gaussian: float | None = None
+
+    def _next(self, bits: int) -> int:
+        self._seed = (self._seed * self._MULT + 0xB) & self._MASK
+        value = self._seed >> (48 - bits)
+        return value - (1 << bits) if value >= 1 << (bits - 1) else value
+
+    def next_double(self) -> float:
+        hi = self._next(26) & ((1 << 26) - 1)
+        lo = self._next(27) & ((1 << 27) - 1)
+        return ((hi << 27) + lo) * 2.0**-53
+
+    def next_int(self, bound: int) -> int:
+        if bound & -bound == bound:
+            return (bound * (self._next(31) & 0x7FFFFFFF)) >> 31
+        while True:
+            bits = self._next(31) & 0x7FFFFFFF
+            value = bits % bound
+            if bits - value + (bound - 1) < 1 << 31:
+                return value
+
+    def next_gaussian(self) -> float:
+        if self._next_gaussian is not None:
+            value, self._next_gaussian = self._next_gaussian, None
+            return value
+        while True:
+            v1 = 2 * self.next_double() - 1
+            v2 = 2 * self.next_double() - 1
+            s = v1 * v1 + v2 * v2
+            if 0 < s < 1:
+                break
+        multiplier = math.sqrt(-2 * math.log(s) / s)
+        self._next_gaussian = v2 * multiplier
+        return v1 * multiplier
+
+
+@dataclass(frozen=True, eq=False)
+class Terrain:
+    """A ground profile y(x): vertices with strictly increasing x, in metres.
+
+    The first and last segments are the walls; ``start_x`` is the foot of the left wall.
+    """
+
+    name: str
+    xs: np.ndarray
+    ys: np.ndarray
+
+    @property
+    def start_x(self) -> float:
+        return float(self.xs[1])
+
+    def height_at(self, x: float | np.ndarray) -> np.ndarray:
+        """Ground height under x (linear interpolation between vertices)."""
+        return np.interp(x, self.xs, self.ys)
+
+
+def _walled(inner_x: list[float], inner_y: list[float], name: str) -> Terrain:
+    """Add the walls: up WALL_HEIGHT above the neighbouring ground at both ends."""
+    xs = [0.0] + inner_x + [inner_x[-1] + WALL_WIDTH]
+    ys = [inner_y[0] + WALL_HEIGHT] + inner_y + [inner_y[-1] + WALL_HEIGHT]
+    return Terrain(name, np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64))
+
+
+def flat() -> Terrain:
+    return _walled([WALL_WIDTH, LENGTH - WALL_WIDTH], [0.0, 0.0], "flat")
+
+
+def hilly(height: float, width: float, seed: int) -> Terrain:
+    """The authors' random walk of heights (original-system.md section 1.5), bit for bit."""
+    rng = JavaRandom(seed)
+    xs = [0.0, WALL_WIDTH]
+    ys = [WALL_HEIGHT, 0.0]
+    while xs[-1] < LENGTH - WALL_WIDTH:
+        xs.append(xs[-1] + max(1.0, (rng.next_gaussian() * 0.25 + 1) * width))
+        ys.append(ys[-1] + rng.next_gaussian() * height)
+    xs.append(xs[-1] + WALL_WIDTH)
+    ys.append(WALL_HEIGHT)
+    name = f"hilly-{_fmt(height)}-{_fmt(width)}-{seed}"
+    return Terrain(name, np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64))
+
+
+def steppy(height: float, width: float, seed: int) -> Terrain:
+    """Flat steps of random width N(W, (W/4)^2) >= 1 and random height steps N(0, H^2)."""
+    rng = JavaRandom(seed)
+    xs = [WALL_WIDTH]
+    ys = [0.0]
+    while xs[-1] < LENGTH - WALL_WIDTH:
+        step_width = max(1.0, (rng.next_gaussian() * 0.25 + 1) * width)
+        xs.append(xs[-1] + step_width)
+        ys.append(ys[-1])
+        xs.append(xs[-1] + STEP_RISER)
+        ys.append(ys[-1] + rng.next_gaussian() * height)
+    return _walled(xs, ys, f"steppy-{_fmt(height)}-{_fmt(width)}-{seed}")
+
+
+def slope(degrees: float, name: str) -> Terrain:
+    rise = math.tan(math.radians(degrees)) * (LENGTH - 2 * WALL_WIDTH)
+    return _walled([WALL_WIDTH, LENGTH - WALL_WIDTH], [0.0, rise], name)
+
+
+def _fmt(value: float) -> str:
+    return str(int(value)) if float(value).is_integer() else str(value)
+
+
+_NUMBER = r"(\d+(?:\.\d+)?)"
+_PATTERNS = {
+    "hilly": re.compile(rf"^hilly-{_NUMBER}-{_NUMBER}-(\d+)$"),
+    "steppy": re.compile(rf"^steppy-{_NUMBER}-{_NUMBER}-(\d+)$"),
+    "uphill": re.compile(rf"^uphill-{_NUMBER}$"),
+    "downhill": re.compile(rf"^downhill-{_NUMBER}$"),
+}
+TERRAIN_HELP = "flat, hilly-H-W-SEED, steppy-H-W-SEED, uphill-DEG or downhill-DEG"
+
+
+def parse_terrain(text: str) -> Terrain:
+    """Build a terrain from its name; raises a one-line error for anything else."""
+    name = str(text).strip()
+    if name == "flat":
+        return flat()
+    for kind, pattern in _PATTERNS.items():
+        match = pattern.match(name)
+        if not match:
+            continue
+        numbers = [float(g) for g in match.groups()]
+        if kind in ("hilly", "steppy"):
+            height, width, seed = numbers
+            if width <= 0:
+                raise bad("terrain", text, "the step width W must be positive")
+            build = hilly if kind == "hilly" else steppy
+            return build(height, width, int(seed))
+        degrees = numbers[0]
+        if not degrees < 60:
+            raise bad("terrain", text, "slopes must be under 60 degrees")
+        return slope(degrees if kind == "uphill" else -degrees, name)
+    raise bad("terrain", text, f"unknown terrain; use {TERRAIN_HELP}")

@@ -1,0 +1,176 @@
+"""Locomotion: simulate a batch of robots and measure how fast they go.
+
+Fitness is the mean x-velocity of the centre of mass over [transient, duration]
+(paper eq. 2): v_x = (x_c(duration) - x_c(transient)) / (duration - transient).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ..brain.controllers import GraphArrays, Sine, Table, Zero
+from ..sim.body import Body
+from ..sim.config import CONTROL_HZ, SimConfig, pack_params
+from ..sim.system import System, compile_system
+from ..sim.terrain import Terrain
+from .episode import (
+    GRAPH,
+    SINE,
+    STATUS_OK,
+    TABLE,
+    ZERO,
+    Controllers,
+    Trace,
+    new_trace,
+    run_batch,
+)
+
+Controller = Zero | Sine | Table | GraphArrays
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What one episode says about one robot (lengths in m, speeds in m/s)."""
+
+    velocity: float
+    distance: float
+    final_com: tuple[float, float]
+    max_speed: float
+    finite: bool
+
+    def to_dict(self) -> dict:
+        return {
+            "velocity": self.velocity,
+            "distance": self.distance,
+            "final_com": list(self.final_com),
+            "max_corner_speed": self.max_speed,
+            "finite": self.finite,
+        }
+
+
+def _pad(rows, tail, dtype, fill=0):
+    longest = max(1, max((len(r) for r in rows), default=0))
+    out = np.full((len(rows), longest) + tail, fill, dtype=dtype)
+    for i, row in enumerate(rows):
+        if len(row):
+            out[i, : len(row)] = row
+    return out
+
+
+def compile_controllers(controllers: Sequence[Controller], n_voxels: Sequence[int]) -> Controllers:
+    """Pad a batch of controller specifications into the arrays the kernel reads."""
+    n = len(controllers)
+    kind = np.zeros(n, dtype=np.int32)
+    sine = np.zeros((n, 3))
+    tables: list[np.ndarray] = []
+    graphs: list[GraphArrays | None] = []
+    for b, (ctrl, voxels) in enumerate(zip(controllers, n_voxels)):
+        graph = None
+        table = np.zeros((0, 0))
+        if isinstance(ctrl, Zero):
+            kind[b] = ZERO
+        elif isinstance(ctrl, Sine):
+            kind[b] = SINE
+            sine[b] = (ctrl.freq, ctrl.amp, ctrl.phase)
+        elif isinstance(ctrl, Table):
+            kind[b] = TABLE
+            if ctrl.rows.shape[1] != voxels:
+                raise ValueError(f"table has {ctrl.rows.shape[1]} columns, body {voxels} voxels")
+            table = ctrl.rows
+        elif isinstance(ctrl, GraphArrays):
+            kind[b] = GRAPH
+            graph = ctrl
+        else:
+            raise TypeError(f"not a controller: {ctrl!r}")
+        tables.append(table)
+        graphs.append(graph)
+    longest = max(1, max(t.shape[0] for t in tables))
+    width = max(1, max(t.shape[1] for t in tables))
+    table_arr = np.zeros((n, longest, width))
+    for b, t in enumerate(tables):
+        table_arr[b, : t.shape[0], : t.shape[1]] = t
+    empty_i = np.zeros(0, dtype=np.int32)
+    empty_f = np.zeros(0)
+
+    def column(name, empty):
+        return [getattr(g, name) if g is not None else empty for g in graphs]
+
+    return Controllers(
+        kind=kind,
+        sine=sine,
+        table=table_arr,
+        table_period=np.array([max(1, t.shape[0]) for t in tables], dtype=np.int32),
+        n_nodes=np.array([g.n_nodes if g else 0 for g in graphs], dtype=np.int32),
+        node_kind=_pad(column("node_kind", empty_i), (), np.int32),
+        node_ref=_pad(column("node_ref", empty_i), (), np.int32),
+        n_edges=np.array([g.n_edges if g else 0 for g in graphs], dtype=np.int32),
+        edge_src=_pad(column("src", empty_i), (), np.int32),
+        edge_dst=_pad(column("dst", empty_i), (), np.int32),
+        edge_weight=_pad(column("weight", empty_f), (), np.float64),
+        edge_bias=_pad(column("bias", empty_f), (), np.float64),
+    )
+
+
+def outcomes(trace: Trace, config: SimConfig) -> list[Outcome]:
+    """Per-robot :class:`Outcome` from a finished trace."""
+    start = config.transient_steps
+    end = config.n_steps
+    span = (end - start) / CONTROL_HZ
+    result = []
+    for b in range(trace.com.shape[0]):
+        com = trace.com[b]
+        finite = bool(trace.status[b] == STATUS_OK)
+        velocity = (com[end, 0] - com[start, 0]) / span if finite else math.nan
+        result.append(
+            Outcome(
+                velocity=float(velocity),
+                distance=float(com[end, 0] - com[0, 0]) if finite else math.nan,
+                final_com=(float(com[end, 0]), float(com[end, 1])),
+                max_speed=float(trace.max_speed[b]),
+                finite=finite,
+            )
+        )
+    return result
+
+
+def run(
+    system: System,
+    controllers: Controllers,
+    config: SimConfig,
+    seeds: Sequence[int],
+    record: bool = False,
+) -> Trace:
+    """Run a compiled batch; the lowest-level entry point (no checks, no Python objects)."""
+    seeds_arr = np.asarray(seeds, dtype=np.uint64)
+    trace = new_trace(len(seeds_arr), config.n_steps, system, record)
+    run_batch(system, controllers, pack_params(config), seeds_arr, config.n_steps, trace)
+    return trace
+
+
+def simulate(
+    bodies: Sequence[Body],
+    terrains: Sequence[Terrain],
+    controllers: Sequence[Controller],
+    config: SimConfig | None = None,
+    seeds: Sequence[int] | int = 0,
+    record: bool = False,
+) -> tuple[list[Outcome], Trace]:
+    """Simulate robot b = (bodies[b], terrains[b], controllers[b]) for every b, in one batch.
+
+    ``seeds`` seeds each robot's sensor noise (one int seeds them all alike). With ``record``
+    the trace also holds every step's corner positions, actuation, readings and contacts.
+    """
+    config = config or SimConfig()
+    n = len(bodies)
+    if not (len(terrains) == len(controllers) == n):
+        raise ValueError("bodies, terrains and controllers must have the same length")
+    if isinstance(seeds, (int, np.integer)):
+        seeds = [int(seeds)] * n
+    system = compile_system(bodies, terrains)
+    ctrl = compile_controllers(controllers, [b.shape.n_voxels for b in bodies])
+    trace = run(system, ctrl, config, seeds, record)
+    return outcomes(trace, config), trace

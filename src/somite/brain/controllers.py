@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -62,7 +62,6 @@ class GraphArrays:
     dst: np.ndarray  # (E,) int32
     weight: np.ndarray  # (E,)
     bias: np.ndarray  # (E,)
-    labels: tuple = field(default=())
 
     @property
     def n_nodes(self) -> int:

@@ -8,8 +8,7 @@ edge, the bias summed once per edge, an isolated node giving act(0). Hidden node
 
 from __future__ import annotations
 
-import math
-
+from .._math import sigmoid, tanh
 from .._jit import njit
 
 SENSOR, HIDDEN, ACTUATOR = 0, 1, 2
@@ -29,12 +28,12 @@ def graph_step(n_nodes, node_kind, node_ref, n_edges, src, dst, weight, bias,
     for n in range(n_nodes):
         kind = node_kind[n]
         if kind == SENSOR:
-            h_next[n] = math.tanh(readings[node_ref[n]])
+            h_next[n] = tanh(readings[node_ref[n]])
         elif kind == HIDDEN:
             if hidden_sigmoid:
-                h_next[n] = 1.0 / (1.0 + math.exp(-h_next[n]))
+                h_next[n] = sigmoid(h_next[n])
             else:
-                h_next[n] = math.tanh(h_next[n])
+                h_next[n] = tanh(h_next[n])
         else:
-            h_next[n] = math.tanh(h_next[n])
+            h_next[n] = tanh(h_next[n])
             actuation[node_ref[n]] = h_next[n]

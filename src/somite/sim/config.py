@@ -35,6 +35,7 @@ class SimConfig:
 
     duration: float = 30.0
     transient: float = 5.0
+    start_gap: float = 1.0
     substeps: int = 8
     spring_hz: float = 8.0
     damping_ratio: float = 0.3
@@ -67,7 +68,7 @@ class SimConfig:
         for name in ("spring_hz", "lidar_range", "velocity_max", "gravity"):
             if not getattr(self, name) > 0:
                 raise bad(name, getattr(self, name), "must be positive")
-        for name in ("damping_ratio", "drag", "friction", "noise_sigma", "max_peak_depth"):
+        for name in ("start_gap", "damping_ratio", "drag", "friction", "noise_sigma", "max_peak_depth"):
             if getattr(self, name) < 0:
                 raise bad(name, getattr(self, name), "must be zero or positive")
         if not 0 <= self.area_delta < 1:

@@ -20,7 +20,6 @@ from .config import (
     P_EXPAND,
     P_FRICTION,
     P_GRAVITY,
-    P_MIN_LENGTH,
     P_PEAK_DEPTH,
     P_STIFFNESS,
 )
@@ -52,84 +51,101 @@ def set_rest_lengths(n_springs, owners, rest0, actuation, params, rest):
         rest[s] = rest0[s] * f
 
 
-@njit
-def integrate(n_points, n_springs, ends, strength, rest, mass, inv_mass, pos, vel, force, params):
+@njit(inline="always")
+def integrate(n_points, n_springs, ends, strength, rest, min_length, mass, inv_mass, pos, vel,
+              force, dxs, dys, dvx, dvy, fxs, fys, params):
     """One semi-implicit Euler step of springs, gravity and drag.
 
     ``strength`` is the number of voxels owning each spring (1 or 2): parallel springs add up.
+    ``force`` must hold zeros on entry and holds zeros on exit; ``dxs`` .. ``fys`` are (S,)
+    scratch, separate arrays so that the compiler knows they do not overlap.
+    The springs go in three passes (gather, forces, scatter) so that the middle one has no
+    branch and no indirect access, and compiles to SIMD code. It also counts the springs
+    shorter than their ``min_length``; only when there are any (rarely) does the hard limit
+    (:func:`enforce_min_lengths`) run, before the velocities change.
     """
     dt = params[P_DT]
     k = params[P_STIFFNESS]
     c = params[P_DAMPING]
     g = params[P_GRAVITY]
     drag = params[P_DRAG]
-    for p in range(n_points):
-        force[p, 0] = -drag * mass[p] * vel[p, 0]
-        force[p, 1] = -drag * mass[p] * vel[p, 1] - g * mass[p]
     for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
-        dx = pos[b, 0] - pos[a, 0]
-        dy = pos[b, 1] - pos[a, 1]
-        length = math.sqrt(dx * dx + dy * dy)
-        if length < 1e-9:
-            continue
+        dxs[s] = pos[b, 0] - pos[a, 0]
+        dys[s] = pos[b, 1] - pos[a, 1]
+        dvx[s] = vel[b, 0] - vel[a, 0]
+        dvy[s] = vel[b, 1] - vel[a, 1]
+    n_short = 0
+    for s in range(n_springs):
+        length = math.sqrt(dxs[s] * dxs[s] + dys[s] * dys[s])
+        n_short += length < min_length[s]
         inv = 1.0 / length
-        nx = dx * inv
-        ny = dy * inv
-        closing = (vel[b, 0] - vel[a, 0]) * nx + (vel[b, 1] - vel[a, 1]) * ny
-        f = strength[s] * (k * (length - rest[s]) + c * closing)
-        force[a, 0] += f * nx
-        force[a, 1] += f * ny
-        force[b, 0] -= f * nx
-        force[b, 1] -= f * ny
+        closing = (dvx[s] * dxs[s] + dvy[s] * dys[s]) * inv
+        f = strength[s] * (k * (length - rest[s]) + c * closing) * inv
+        fxs[s] = f * dxs[s]
+        fys[s] = f * dys[s]
+    if n_short > 0:
+        enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel)
+    for s in range(n_springs):
+        a = ends[s, 0]
+        b = ends[s, 1]
+        force[a, 0] += fxs[s]
+        force[a, 1] += fys[s]
+        force[b, 0] -= fxs[s]
+        force[b, 1] -= fys[s]
     for p in range(n_points):
         step = inv_mass[p] * dt
-        vel[p, 0] += force[p, 0] * step
-        vel[p, 1] += force[p, 1] * step
+        vel[p, 0] += (force[p, 0] - drag * mass[p] * vel[p, 0]) * step
+        vel[p, 1] += (force[p, 1] - drag * mass[p] * vel[p, 1]) * step - g * dt
         pos[p, 0] += vel[p, 0] * dt
         pos[p, 1] += vel[p, 1] * dt
+        force[p, 0] = 0.0
+        force[p, 1] = 0.0
 
 
 @njit
-def enforce_min_lengths(n_springs, ends, rest0, mass, pos, vel, params):
-    """Hard limit: no side or diagonal shorter than ``min_length_ratio`` of its rest length.
+def push_apart(a, b, length, limit, dx, dy, inv_mass, pos, vel):
+    """Move points a, b apart (mass-weighted) to distance ``limit``; stop their closing."""
+    if length < 1e-9:
+        dx = 0.0
+        dy = 1.0
+        length = 1.0
+    nx = dx / length
+    ny = dy / length
+    wa = inv_mass[a]
+    wb = inv_mass[b]
+    share = (limit - length) / (wa + wb)
+    pos[a, 0] -= nx * share * wa
+    pos[a, 1] -= ny * share * wa
+    pos[b, 0] += nx * share * wb
+    pos[b, 1] += ny * share * wb
+    closing = (vel[b, 0] - vel[a, 0]) * nx + (vel[b, 1] - vel[a, 1]) * ny
+    if closing < 0.0:
+        impulse = closing / (wa + wb)
+        vel[a, 0] += nx * impulse * wa
+        vel[a, 1] += ny * impulse * wa
+        vel[b, 0] -= nx * impulse * wb
+        vel[b, 1] -= ny * impulse * wb
 
-    A violating pair is pushed apart (mass-weighted) onto the limit and its closing velocity
-    along the spring removed, so no controller can collapse or invert a voxel.
-    """
-    ratio = params[P_MIN_LENGTH]
+
+@njit
+def enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel):
+    """Hard limit: no side or diagonal shorter than ``min_length_ratio`` of its rest length,
+    so no controller can collapse or invert a voxel. Run after the last substep of each
+    control step, so that what is sensed and recorded always obeys the limit."""
     for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
         dx = pos[b, 0] - pos[a, 0]
         dy = pos[b, 1] - pos[a, 1]
-        limit = ratio * rest0[s]
+        limit = min_length[s]
         d2 = dx * dx + dy * dy
-        if d2 >= limit * limit:
-            continue
-        length = math.sqrt(d2)
-        if length < 1e-9:
-            continue
-        nx = dx / length
-        ny = dy / length
-        wa = 1.0 / mass[a]
-        wb = 1.0 / mass[b]
-        share = (limit - length) / (wa + wb)
-        pos[a, 0] -= nx * share * wa
-        pos[a, 1] -= ny * share * wa
-        pos[b, 0] += nx * share * wb
-        pos[b, 1] += ny * share * wb
-        closing = (vel[b, 0] - vel[a, 0]) * nx + (vel[b, 1] - vel[a, 1]) * ny
-        if closing < 0.0:
-            impulse = closing / (wa + wb)
-            vel[a, 0] += nx * impulse * wa
-            vel[a, 1] += ny * impulse * wa
-            vel[b, 0] -= nx * impulse * wb
-            vel[b, 1] -= ny * impulse * wb
+        if d2 < limit * limit:
+            push_apart(a, b, math.sqrt(d2), limit, dx, dy, inv_mass, pos, vel)
 
 
-@njit
+@njit(inline="always")
 def segment_at(xs, n, x) -> int:
     """Index i of the terrain segment [xs[i], xs[i+1]] under x (clamped to the terrain)."""
     lo = 0
@@ -155,7 +171,7 @@ def height_at(xs, ys, n, x) -> float:
     return ys[i] + t * (ys[i + 1] - ys[i])
 
 
-@njit
+@njit(inline="always")
 def highest_ground(xs, ys, n, lo_x, hi_x) -> float:
     """The highest terrain point between lo_x and hi_x."""
     i = segment_at(xs, n, lo_x)
@@ -166,7 +182,7 @@ def highest_ground(xs, ys, n, lo_x, hi_x) -> float:
     return top
 
 
-@njit
+@njit(inline="always")
 def x_range(n_points, pos):
     lo_x = pos[0, 0]
     hi_x = pos[0, 0]
@@ -176,7 +192,7 @@ def x_range(n_points, pos):
     return lo_x, hi_x
 
 
-@njit
+@njit(inline="always")
 def ground_contact(n_points, pos, vel, contact, xs, ys, n, params):
     """Push corners out of the ground onto its nearest segment; no bounce, Coulomb friction.
 
@@ -235,7 +251,7 @@ def ground_contact(n_points, pos, vel, contact, xs, ys, n, params):
             vel[p, 1] -= cut * ty
 
 
-@njit
+@njit(inline="always")
 def peak_contact(n_points, n_boundary, boundary, pos, vel, xs, ys, n, params):
     """Keep terrain vertices from poking deeper than ``max_peak_depth`` into an outer side.
 
@@ -278,11 +294,11 @@ def peak_contact(n_points, n_boundary, boundary, pos, vel, xs, ys, n, params):
                     vel[p, 1] -= vn * ony
 
 
-@njit
-def substep(n_points, n_springs, n_boundary, ends, strength, rest, rest0, mass, inv_mass,
-            boundary, pos, vel, force, contact, xs, ys, n_terrain, params):
-    """Advance one robot by one physics substep."""
-    integrate(n_points, n_springs, ends, strength, rest, mass, inv_mass, pos, vel, force, params)
-    enforce_min_lengths(n_springs, ends, rest0, mass, pos, vel, params)
+@njit(inline="always")
+def substep(n_points, n_springs, n_boundary, ends, strength, rest, min_length, mass, inv_mass,
+            boundary, pos, vel, force, work, contact, xs, ys, n_terrain, params):
+    """Advance one robot by one physics substep. ``work`` is a tuple of 6 (S,) arrays."""
+    integrate(n_points, n_springs, ends, strength, rest, min_length, mass, inv_mass, pos, vel,
+              force, work[0], work[1], work[2], work[3], work[4], work[5], params)
     peak_contact(n_points, n_boundary, boundary, pos, vel, xs, ys, n_terrain, params)
     ground_contact(n_points, pos, vel, contact, xs, ys, n_terrain, params)

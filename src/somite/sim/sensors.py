@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from .._math import tanh
 from .._jit import njit
 from .config import (
     P_LIDAR0,
@@ -36,7 +37,8 @@ _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _STEP_KEY = np.uint64(0xD6E8FEB86659FD93)
-_S30, _S27, _S31, _S11 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(11)
+_S30, _S27, _S31, _S32 = np.uint64(30), np.uint64(27), np.uint64(31), np.uint64(32)
+_LOW32 = np.uint64(0xFFFFFFFF)
 
 
 @njit
@@ -49,20 +51,26 @@ def _mix(z):
 
 @njit
 def gaussian_pair(seed, step, pair):
-    """Two independent standard normal draws that depend only on (seed, step, pair)."""
+    """Two independent standard normal draws that depend only on (seed, step, pair).
+
+    Marsaglia's polar method on counter-based uniforms: no trigonometry, and each retry
+    hashes the next counter value, so the result stays a pure function of its key.
+    """
     key = _mix(np.uint64(seed) + np.uint64(step) * _STEP_KEY + np.uint64(pair) * _GOLDEN)
-    h1 = _mix(key)
-    h2 = _mix(key ^ _GOLDEN)
-    u1 = (float(h1 >> _S11) + 1.0) * 2.0**-53
-    u2 = float(h2 >> _S11) * 2.0**-53
-    radius = math.sqrt(-2.0 * math.log(u1))
-    return radius * math.cos(2.0 * math.pi * u2), radius * math.sin(2.0 * math.pi * u2)
+    while True:
+        key = _mix(key + _GOLDEN)
+        u = float(key >> _S32) * 2.0**-31 - 1.0
+        v = float(key & _LOW32) * 2.0**-31 - 1.0
+        s = u * u + v * v
+        if 0.0 < s < 1.0:
+            factor = math.sqrt(-2.0 * math.log(s) / s)
+            return u * factor, v * factor
 
 
 @njit
 def soft_normalise(x, low, high) -> float:
     v = (x - low) / (high - low)
-    return 0.5 + 0.5 * math.tanh(2.0 * (2.0 * v - 1.0))
+    return 0.5 + 0.5 * tanh(2.0 * (2.0 * v - 1.0))
 
 
 @njit

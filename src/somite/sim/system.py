@@ -28,7 +28,7 @@ _READING_CODES = {"area": (R_AREA,), "touch": (R_TOUCH,), "velocity": (R_VX, R_V
 _READING_CODES["lidar"] = tuple(R_LIDAR0 + k for k in range(SENSOR_WIDTH["lidar"]))
 
 PLACEMENT_GAP = 1.0
-"""Metres between the left wall's foot and the robot, and between the ground and the robot."""
+"""Metres between the ground and the robot's lowest voxel at the start."""
 
 
 class System(NamedTuple):
@@ -110,11 +110,12 @@ def geometry(body: Body) -> Geometry:
     )
 
 
-def place(points: np.ndarray, corners: np.ndarray, terrain: Terrain) -> np.ndarray:
-    """Rest positions [m] on ``terrain``: left edge PLACEMENT_GAP right of the left wall's
-    foot, lowest voxel PLACEMENT_GAP above the ground under its centre (original §1.6)."""
+def place(points: np.ndarray, corners: np.ndarray, terrain: Terrain, gap: float) -> np.ndarray:
+    """Rest positions [m] on ``terrain``: left edge ``gap`` right of the left wall's foot
+    (1 m in the paper), lowest voxel PLACEMENT_GAP above the ground under its centre
+    (original-system.md section 1.6)."""
     pos = points * VOXEL_SIDE
-    pos[:, 0] += terrain.start_x + PLACEMENT_GAP - pos[:, 0].min()
+    pos[:, 0] += terrain.start_x + gap - pos[:, 0].min()
     quads = pos[corners]  # (V, 4, 2)
     centre_x = quads[:, :, 0].mean(axis=1)
     clearance = quads[:, :, 1].min(axis=1) - terrain.height_at(centre_x)
@@ -139,8 +140,11 @@ def _pad(rows: Sequence[np.ndarray], tail: tuple, dtype, fill=0) -> np.ndarray:
     return out
 
 
-def compile_system(bodies: Sequence[Body], terrains: Sequence[Terrain]) -> System:
-    """Pad a batch: robot b has body ``bodies[b]`` on terrain ``terrains[b]``.
+def compile_system(
+    bodies: Sequence[Body], terrains: Sequence[Terrain], start_gap: float = 1.0
+) -> System:
+    """Pad a batch: robot b has body ``bodies[b]`` on terrain ``terrains[b]``, its left edge
+    ``start_gap`` metres right of the left wall's foot.
 
     Identical terrain objects are stored once.
     """
@@ -156,7 +160,7 @@ def compile_system(bodies: Sequence[Body], terrains: Sequence[Terrain]) -> Syste
         terrain_of[b] = unique[id(terrain)]
     cache: dict[int, Geometry] = {}
     geoms = [cache.setdefault(id(body), geometry(body)) for body in bodies]
-    positions = [place(g.points, g.corners, t) for g, t in zip(geoms, terrains)]
+    positions = [place(g.points, g.corners, t, start_gap) for g, t in zip(geoms, terrains)]
     readings = [_readings(body) for body in bodies]
     return System(
         n_points=np.array([len(g.points) for g in geoms], dtype=np.int32),

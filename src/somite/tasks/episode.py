@@ -18,9 +18,9 @@ from numba import prange
 from .._jit import njit
 from ..brain.kernels import graph_step
 from ..brain.openloop import sine_actuation, table_actuation
-from ..sim.config import P_HIDDEN_SIGMOID, P_SUBSTEPS, P_TOUCH_WINDOW, P_VELOCITY_WINDOW
+from ..sim.config import P_HIDDEN_SIGMOID, P_MIN_LENGTH, P_SUBSTEPS, P_TOUCH_WINDOW, P_VELOCITY_WINDOW
 from ..sim.config import CONTROL_HZ
-from ..sim.physics import set_rest_lengths, substep
+from ..sim.physics import enforce_min_lengths, set_rest_lengths, substep
 from ..sim.config import P_LIDAR_FRAME, P_VELOCITY_FRAME
 from ..sim.sensors import lidar_rays, sense, update_histories, voxel_state
 
@@ -137,9 +137,12 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
     pos = system.initial_pos[b, :n_points].copy()
     vel = np.zeros((n_points, 2))
     force = np.zeros((n_points, 2))
+    work = (np.zeros(n_springs), np.zeros(n_springs), np.zeros(n_springs),
+            np.zeros(n_springs), np.zeros(n_springs), np.zeros(n_springs))
     contact = np.zeros(n_points, dtype=np.bool_)
     rest = rest0[:n_springs].copy()
     inv_mass = 1.0 / mass[:n_points]
+    min_length = rest0[:n_springs] * params[P_MIN_LENGTH]
     strength = np.ones(n_springs)
     for s in range(n_springs):
         if system.spring_owners[b, s, 1] >= 0:
@@ -165,8 +168,9 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
     for k in range(1, n_steps + 1):
         set_rest_lengths(n_springs, system.spring_owners[b], rest0, actuation, params, rest)
         for _ in range(substeps):
-            substep(n_points, n_springs, n_boundary, ends, strength, rest, rest0, mass, inv_mass,
-                    boundary, pos, vel, force, contact, xs, ys, n_terrain, params)
+            substep(n_points, n_springs, n_boundary, ends, strength, rest, min_length, mass,
+                    inv_mass, boundary, pos, vel, force, work, contact, xs, ys, n_terrain, params)
+        enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel)
         cx, cy = _centre_of_mass(n_points, mass, pos)
         for p in range(n_points):
             fastest = max(fastest, vel[p, 0] * vel[p, 0] + vel[p, 1] * vel[p, 1])

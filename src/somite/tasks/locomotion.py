@@ -170,7 +170,7 @@ def simulate(
         raise ValueError("bodies, terrains and controllers must have the same length")
     if isinstance(seeds, (int, np.integer)):
         seeds = [int(seeds)] * n
-    system = compile_system(bodies, terrains)
+    system = compile_system(bodies, terrains, config.start_gap)
     ctrl = compile_controllers(controllers, [b.shape.n_voxels for b in bodies])
     trace = run(system, ctrl, config, seeds, record)
     return outcomes(trace, config), trace

@@ -1,0 +1,57 @@
+"""Genome -> GraphArrays: the flat form the episode kernel runs (decisions.md, "The controller").
+
+A sensor node refers to its reading by position in ``body.readings`` (voxel by voxel, slot by
+slot, original-system.md section 3), an actuator node to its voxel's position in
+``body.shape.voxels``; edges refer to nodes by position in ``genome.nodes``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import genome as _genome
+from . import kernels
+from .controllers import GraphArrays
+from .genome import Genome, body_table
+
+# The genome numbers kinds like the kernel, so compiling copies codes instead of mapping them.
+if (_genome.SENSOR, _genome.HIDDEN, _genome.ACTUATOR) != (
+    kernels.SENSOR, kernels.HIDDEN, kernels.ACTUATOR
+):
+    raise ImportError("somite.brain.genome and somite.brain.kernels number node kinds differently")
+
+
+def compile_genome(genome: Genome) -> GraphArrays:
+    """Flatten ``genome`` into :class:`GraphArrays` (N nodes, E edges).
+
+    Parameters
+    ----------
+    genome : Genome
+        A validated genome.
+
+    Returns
+    -------
+    GraphArrays
+        ``node_kind`` (N,) int32; ``node_ref`` (N,) int32: reading index for sensors, voxel index
+        for actuators, -1 for hidden nodes; ``src``, ``dst`` (E,) int32 node positions;
+        ``weight``, ``bias`` (E,) float64.
+    """
+    index = genome.index
+    table = body_table(genome.body)
+    kind = index.kind.astype(np.int32)
+    ref = np.where(
+        kind == kernels.SENSOR,
+        table.first_reading[index.voxel] + index.slot,
+        np.where(kind == kernels.ACTUATOR, index.voxel, -1),
+    ).astype(np.int32)
+    n_edges = len(genome.edges)
+    weight = np.fromiter((e.weight for e in genome.edges), dtype=np.float64, count=n_edges)
+    bias = np.fromiter((e.bias for e in genome.edges), dtype=np.float64, count=n_edges)
+    return GraphArrays(
+        node_kind=kind,
+        node_ref=ref,
+        src=index.src.astype(np.int32),
+        dst=index.dst.astype(np.int32),
+        weight=weight,
+        bias=bias,
+    )

@@ -1,0 +1,507 @@
+"""The graph genome of a controller: nodes placed in voxels, weighted edges between them.
+
+A node is a SENSOR (one scalar reading of its voxel), a HIDDEN node or an ACTUATOR (its voxel's
+actuator); an edge u -> v carries a weight and a bias (original-system.md sections 4.1 and 3).
+Nodes have stable integer ids; positions in the tuples mean nothing to the controller, which
+updates all nodes synchronously. The genome is immutable: operators build new ones.
+
+File format (JSON, strict: no NaN or Infinity)::
+
+    {"format": "somite-genome", "version": 1, "body": {...},
+     "nodes": [{"id": 0, "x": 0, "y": 0, "kind": "sensor", "slot": 0}, ...],
+     "edges": [{"src": 0, "dst": 2, "weight": 0.31, "bias": -0.72}, ...]}
+
+The compact form for logs has the same keys on one line, with each node written as
+``[id, x, y, kind, slot]`` (slot null unless a sensor) and each edge as ``[src, dst, w, b]``.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import os
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+
+from ..errors import bad
+from ..sim.body import SENSOR_WIDTH, Body
+
+FORMAT = "somite-genome"
+VERSION = 1
+
+NODE_KINDS = ("sensor", "hidden", "actuator")
+"""Node kinds; a kind's position here is its code in :attr:`GenomeIndex.kind`."""
+
+SENSOR, HIDDEN, ACTUATOR = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class Node:
+    """A controller node in voxel (x, y).
+
+    ``slot`` is, for a sensor, the index of its reading among its voxel's readings (0..k-1 in the
+    body's order); it is None for hidden and actuator nodes.
+    """
+
+    id: int
+    x: int
+    y: int
+    kind: str
+    slot: int | None = None
+
+
+@dataclass(frozen=True)
+class Edge:
+    """A directed edge between node ids, with its weight and bias."""
+
+    src: int
+    dst: int
+    weight: float
+    bias: float
+
+
+class BodyTable(NamedTuple):
+    """What a genome needs to know about its body, computed once per body."""
+
+    voxel_index: dict  # (x, y) -> position in body.shape.voxels
+    n_slots: tuple  # (V,) number of scalar readings of each voxel
+    slot_count: np.ndarray  # (V,) int64, the same as an array
+    first_reading: np.ndarray  # (V,) int64 index in body.readings of the voxel's slot 0
+    voxel_xy: np.ndarray  # (V, 2) int64 voxel coordinates
+
+
+@functools.lru_cache(maxsize=64)
+def body_table(body: Body) -> BodyTable:
+    """The reading table of ``body``; cached because every genome of a run shares one body."""
+    n_slots = tuple(sum(SENSOR_WIDTH[k] for k in kinds) for kinds in body.sensors)
+    first = np.concatenate(([0], np.cumsum(n_slots)[:-1])).astype(np.int64)
+    table = BodyTable(
+        voxel_index={xy: i for i, xy in enumerate(body.shape.voxels)},
+        n_slots=n_slots,
+        slot_count=np.array(n_slots, dtype=np.int64),
+        first_reading=first,
+        voxel_xy=np.array(body.shape.voxels, dtype=np.int64).reshape(-1, 2),
+    )
+    # Shared by every genome of the body through the cache: nobody may write to it.
+    for array in (table.slot_count, table.first_reading, table.voxel_xy):
+        array.flags.writeable = False
+    return table
+
+
+class GenomeIndex(NamedTuple):
+    """A genome as arrays over node positions (N nodes, E edges), for operators and compiling."""
+
+    ids: np.ndarray  # (N,) int64 node ids
+    kind: np.ndarray  # (N,) int8 SENSOR / HIDDEN / ACTUATOR
+    voxel: np.ndarray  # (N,) int64 position of the node's voxel in body.shape.voxels
+    slot: np.ndarray  # (N,) int64 sensor slot, -1 for other nodes
+    src: np.ndarray  # (E,) int64 node position of each edge's source
+    dst: np.ndarray  # (E,) int64 node position of each edge's target
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_real(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+@dataclass(frozen=True, repr=False)
+class Genome:
+    """A graph controller for one body: its nodes and edges, validated on construction.
+
+    Attributes
+    ----------
+    body : Body
+        The body the controller drives; nodes refer to its voxels and readings.
+    nodes : tuple of Node
+        Every reading of the body has exactly one sensor node and every voxel one actuator node;
+        hidden nodes come on top.
+    edges : tuple of Edge
+        No edge leaves an actuator or enters a sensor; at most one edge per ordered pair.
+    """
+
+    body: Body
+    nodes: tuple[Node, ...]
+    edges: tuple[Edge, ...]
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.body, Body):
+            raise bad("body", type(self.body).__name__, "expected a somite Body")
+        # Accept lists for convenience; the stored form must be hashable.
+        object.__setattr__(self, "nodes", tuple(self.nodes))
+        object.__setattr__(self, "edges", tuple(self.edges))
+        position, index = _validate(self.nodes, self.edges, body_table(self.body))
+        # Not fields: derived data, left out of equality, hashing and the file.
+        object.__setattr__(self, "_position", position)
+        object.__setattr__(self, "_index", index)
+
+    def __repr__(self) -> str:
+        return (
+            f"Genome(body={self.body.shape.grid_string()!r}, n_nodes={self.n_nodes}, "
+            f"n_edges={self.n_edges})"
+        )
+
+    @property
+    def n_nodes(self) -> int:
+        """|V|, the number of nodes."""
+        return len(self.nodes)
+
+    @property
+    def n_edges(self) -> int:
+        """|E|, the number of edges."""
+        return len(self.edges)
+
+    @property
+    def size(self) -> int:
+        """|G| = |V| + |E| (original-system.md section 4.1)."""
+        return len(self.nodes) + len(self.edges)
+
+    @property
+    def position(self) -> dict[int, int]:
+        """Node id -> position in :attr:`nodes`."""
+        return self._position
+
+    @property
+    def index(self) -> GenomeIndex:
+        """The genome as arrays over node positions, for operators and compiling."""
+        return self._index
+
+    # -- serialisation ------------------------------------------------------------------------
+
+    def to_dict(self) -> dict:
+        """The JSON-ready form (see the module docstring)."""
+        return {
+            "format": FORMAT,
+            "version": VERSION,
+            "body": self.body.to_dict(),
+            "nodes": [_node_dict(n) for n in self.nodes],
+            "edges": [
+                {"src": e.src, "dst": e.dst, "weight": float(e.weight), "bias": float(e.bias)}
+                for e in self.edges
+            ],
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "Genome":
+        """Inverse of :meth:`to_dict`; also reads the compact form's list rows."""
+        if not isinstance(data, dict):
+            raise bad("genome", type(data).__name__, "expected a JSON object")
+        if data.get("format") != FORMAT:
+            raise bad("format", data.get("format"), f"not a genome file; expected {FORMAT!r}")
+        version = data.get("version")
+        if not _is_int(version) or version != VERSION:
+            raise bad("version", version, f"unsupported; this somite reads version {VERSION}")
+        if "body" not in data:
+            raise bad("body", None, "a genome file needs the body it was evolved for")
+        body = Body.from_dict(data["body"])
+        nodes = [_node_from(item, i) for i, item in enumerate(_rows(data, "nodes"))]
+        edges = [_edge_from(item, i) for i, item in enumerate(_rows(data, "edges"))]
+        return cls(body, tuple(nodes), tuple(edges))
+
+    def to_compact(self) -> str:
+        """One line of JSON for logs; :meth:`from_compact` reads it back exactly."""
+        data = self.to_dict()
+        data["nodes"] = [[n.id, n.x, n.y, n.kind, n.slot] for n in self.nodes]
+        data["edges"] = [[e.src, e.dst, float(e.weight), float(e.bias)] for e in self.edges]
+        return json.dumps(data, allow_nan=False, separators=(",", ":"))
+
+    @classmethod
+    def from_compact(cls, text: str) -> "Genome":
+        """Read the output of :meth:`to_compact` (or any genome JSON text)."""
+        return cls.from_dict(_parse_json(text, "genome"))
+
+    def save(self, path: str | os.PathLike) -> Path:
+        """Write the genome as JSON; atomic (temp file in the same folder, then rename)."""
+        path = Path(path)
+        text = json.dumps(self.to_dict(), allow_nan=False, indent=1)
+        # Not tempfile.mkstemp: its files are private (0600); os.open with 0666 honours the umask.
+        tmp = path.parent / f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
+        handle = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        try:
+            with os.fdopen(handle, "w", encoding="utf-8") as out:
+                out.write(text + "\n")
+            os.replace(tmp, path)
+        except BaseException:
+            # Never leave a half-written temp file beside the real ones.
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> "Genome":
+        """Read a genome file written by :meth:`save`."""
+        try:
+            text = Path(path).read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as error:
+            raise bad("genome", str(path), f"cannot read the file ({error})") from None
+        return cls.from_dict(_parse_json(text, "genome", str(path)))
+
+
+def next_id(genome: Genome) -> int:
+    """A fresh node id for a new hidden node: the largest id plus one."""
+    return max((n.id for n in genome.nodes), default=-1) + 1
+
+
+# -- validation ---------------------------------------------------------------------------------
+#
+# Genomes are built on every mutation, so validation runs a vectorised check first; only when
+# that fails does the item-by-item check run, to say which field is wrong.
+
+_KIND_CODE = {kind: code for code, kind in enumerate(NODE_KINDS)}
+_NONE = type(None)
+
+
+def _validate(nodes, edges, table: BodyTable) -> tuple[dict[int, int], GenomeIndex]:
+    """Check nodes and edges against the body; return id -> position and the index arrays."""
+    fast = _fast_index(nodes, edges, table)
+    if fast is not None:
+        return fast
+    position, kinds, voxels, slots = _check_nodes(nodes, table)
+    src, dst = _check_edges(edges, position, kinds)
+    return position, _frozen(GenomeIndex(
+        ids=np.array([n.id for n in nodes], dtype=np.int64),
+        kind=np.array(kinds, dtype=np.int8),
+        voxel=np.array(voxels, dtype=np.int64),
+        slot=np.array(slots, dtype=np.int64),
+        src=np.array(src, dtype=np.int64),
+        dst=np.array(dst, dtype=np.int64),
+    ))
+
+
+def _frozen(index: GenomeIndex) -> GenomeIndex:
+    """The same arrays, read-only: the index belongs to an immutable genome."""
+    for array in index:
+        array.flags.writeable = False
+    return index
+
+
+def _fast_index(nodes, edges, table: BodyTable):
+    """The vectorised check: (position, index) for a valid genome, None for any problem."""
+    if not all(type(n) is Node for n in nodes) or not all(type(e) is Edge for e in edges):
+        return None
+    ids = [n.id for n in nodes]
+    xs = [n.x for n in nodes]
+    ys = [n.y for n in nodes]
+    slots = [n.slot for n in nodes]
+    codes = [_KIND_CODE.get(n.kind) for n in nodes]
+    voxels = [table.voxel_index.get(xy) for xy in zip(xs, ys)]
+    # Exact types: bools and floats hash like ints and would slip through the lookups.
+    if not {*map(type, ids), *map(type, xs), *map(type, ys)} <= {int}:
+        return None
+    if None in codes or None in voxels or not set(map(type, slots)) <= {int, _NONE}:
+        return None
+    position = dict(zip(ids, range(len(ids))))
+    if len(position) != len(ids) or (ids and min(ids) < 0):
+        return None
+    kind = np.array(codes, dtype=np.int8)
+    voxel = np.array(voxels, dtype=np.int64)
+    slot = np.array([-1 if s is None else s for s in slots], dtype=np.int64)
+    if not _nodes_cover_body(kind, voxel, slot, [s is None for s in slots], table):
+        return None
+    edge_columns = _fast_edges(edges, position, kind)
+    if edge_columns is None:
+        return None
+    ids_arr = np.array(ids, dtype=np.int64)
+    return position, _frozen(GenomeIndex(ids_arr, kind, voxel, slot, *edge_columns))
+
+
+def _nodes_cover_body(kind, voxel, slot, slot_is_none, table: BodyTable) -> bool:
+    """Slots where they belong and in range; each reading and each actuator exactly once."""
+    sensor = kind == SENSOR
+    if np.any(np.array(slot_is_none, dtype=bool) == sensor):
+        return False
+    sensor_voxel, sensor_slot = voxel[sensor], slot[sensor]
+    if np.any(sensor_slot < 0) or np.any(sensor_slot >= table.slot_count[sensor_voxel]):
+        return False
+    readings = np.sort(table.first_reading[sensor_voxel] + sensor_slot)
+    actuated = np.sort(voxel[kind == ACTUATOR])
+    return np.array_equal(readings, np.arange(sum(table.n_slots))) and np.array_equal(
+        actuated, np.arange(len(table.n_slots))
+    )
+
+
+def _fast_edges(edges, position: dict, kind: np.ndarray):
+    """(src, dst) node positions of valid edges, or None for any problem."""
+    if not edges:
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty
+    srcs = [e.src for e in edges]
+    dsts = [e.dst for e in edges]
+    params = [e.weight for e in edges] + [e.bias for e in edges]
+    if not {*map(type, srcs), *map(type, dsts)} <= {int}:
+        return None
+    if not set(map(type, params)) <= {float, int, np.float64}:
+        return None
+    u = [position.get(i) for i in srcs]
+    v = [position.get(i) for i in dsts]
+    if None in u or None in v or not all(map(math.isfinite, params)):
+        return None
+    if len(set(zip(u, v))) != len(u):
+        return None
+    u = np.array(u, dtype=np.int64)
+    v = np.array(v, dtype=np.int64)
+    if np.any(kind[u] == ACTUATOR) or np.any(kind[v] == SENSOR):
+        return None
+    return u, v
+
+
+def _check_nodes(nodes, table: BodyTable):
+    """Validate the nodes; return id -> position and the per-node kind, voxel and slot columns."""
+    position: dict[int, int] = {}
+    kinds, voxels, slots = [], [], []
+    seen_readings: set[tuple[int, int]] = set()
+    actuated: set[int] = set()
+    for i, node in enumerate(nodes):
+        if not isinstance(node, Node):
+            raise bad(f"nodes[{i}]", node, "expected a Node")
+        if not _is_int(node.id) or node.id < 0:
+            raise bad(f"nodes[{i}].id", node.id, "node ids must be integers >= 0")
+        if node.id in position:
+            raise bad(f"nodes[{i}].id", node.id, "node ids must be unique")
+        try:
+            kind = NODE_KINDS.index(node.kind)
+        except ValueError:
+            raise bad(f"nodes[{i}].kind", node.kind, f"use one of {NODE_KINDS}") from None
+        voxel = None
+        if _is_int(node.x) and _is_int(node.y):
+            voxel = table.voxel_index.get((node.x, node.y))
+        if voxel is None:
+            raise bad(f"nodes[{i}]", (node.x, node.y), "not a voxel of the body")
+        if kind == SENSOR:
+            slot = node.slot
+            if not _is_int(slot) or not 0 <= slot < table.n_slots[voxel]:
+                raise bad(
+                    f"nodes[{i}].slot", slot,
+                    f"voxel {(node.x, node.y)} has readings 0..{table.n_slots[voxel] - 1}",
+                )
+            if (voxel, slot) in seen_readings:
+                raise bad(f"nodes[{i}].slot", slot, f"voxel {(node.x, node.y)} reads it twice")
+            seen_readings.add((voxel, slot))
+        else:
+            if node.slot is not None:
+                raise bad(f"nodes[{i}].slot", node.slot, f"a {node.kind} node has no slot")
+            slot = -1
+            if kind == ACTUATOR:
+                if voxel in actuated:
+                    raise bad(f"nodes[{i}]", (node.x, node.y), "voxel has two actuator nodes")
+                actuated.add(voxel)
+        position[node.id] = i
+        kinds.append(kind)
+        voxels.append(voxel)
+        slots.append(slot)
+    _check_coverage(table, seen_readings, actuated)
+    return position, kinds, voxels, slots
+
+
+def _check_coverage(table: BodyTable, seen_readings: set, actuated: set) -> None:
+    """Every reading and every actuator of the body must have its node."""
+    n_voxels = len(table.n_slots)
+    if len(actuated) != n_voxels:
+        missing = min(set(range(n_voxels)) - actuated)
+        raise bad("nodes", tuple(table.voxel_xy[missing].tolist()), "voxel has no actuator node")
+    if len(seen_readings) != sum(table.n_slots):
+        for voxel, count in enumerate(table.n_slots):
+            for slot in range(count):
+                if (voxel, slot) not in seen_readings:
+                    xy = tuple(table.voxel_xy[voxel].tolist())
+                    raise bad("nodes", xy, f"voxel has no sensor node for reading slot {slot}")
+
+
+def _check_edges(edges, position: dict, kinds: list):
+    """Validate the edges; return the node positions of their sources and targets."""
+    src, dst = [], []
+    pairs: set[tuple[int, int]] = set()
+    for i, edge in enumerate(edges):
+        if not isinstance(edge, Edge):
+            raise bad(f"edges[{i}]", edge, "expected an Edge")
+        u = position.get(edge.src) if _is_int(edge.src) else None
+        v = position.get(edge.dst) if _is_int(edge.dst) else None
+        if u is None:
+            raise bad(f"edges[{i}].src", edge.src, "no node has this id")
+        if v is None:
+            raise bad(f"edges[{i}].dst", edge.dst, "no node has this id")
+        if kinds[u] == ACTUATOR:
+            raise bad(f"edges[{i}].src", edge.src, "an edge cannot leave an actuator node")
+        if kinds[v] == SENSOR:
+            raise bad(f"edges[{i}].dst", edge.dst, "an edge cannot enter a sensor node")
+        if (u, v) in pairs:
+            raise bad(f"edges[{i}]", (edge.src, edge.dst), "duplicate edge")
+        for name in ("weight", "bias"):
+            value = getattr(edge, name)
+            if not _is_real(value) or not math.isfinite(value):
+                raise bad(f"edges[{i}].{name}", value, "must be a finite number")
+        pairs.add((u, v))
+        src.append(u)
+        dst.append(v)
+    return src, dst
+
+
+# -- JSON helpers -------------------------------------------------------------------------------
+
+
+def _node_dict(node: Node) -> dict:
+    out = {"id": node.id, "x": node.x, "y": node.y, "kind": node.kind}
+    if node.slot is not None:
+        out["slot"] = node.slot
+    return out
+
+
+def _parse_json(text: str, field: str, where: str | None = None):
+    try:
+        return json.loads(text)
+    except (json.JSONDecodeError, TypeError) as error:
+        detail = getattr(error, "msg", str(error))
+        position = ""
+        if hasattr(error, "lineno"):
+            position = f" at line {error.lineno} column {error.colno}"
+        value = where if where is not None else str(text)[:40]
+        raise bad(field, value, f"not valid JSON: {detail}{position}") from None
+
+
+def _rows(data: dict, key: str) -> list:
+    rows = data.get(key)
+    if not isinstance(rows, list):
+        raise bad(key, rows, "expected a list")
+    return rows
+
+
+def _node_from(item, i: int) -> Node:
+    try:
+        if isinstance(item, list):
+            node_id, x, y, kind, slot = item
+            return Node(node_id, x, y, kind, slot)
+        return Node(item["id"], item["x"], item["y"], item["kind"], item.get("slot"))
+    except (KeyError, TypeError, ValueError, AttributeError):
+        raise bad(f"nodes[{i}]", item, "expected {id, x, y, kind[, slot]}") from None
+
+
+def _edge_from(item, i: int) -> Edge:
+    try:
+        if isinstance(item, list):
+            src, dst, weight, bias = item
+            return Edge(src, dst, weight, bias)
+        return Edge(item["src"], item["dst"], item["weight"], item["bias"])
+    except (KeyError, TypeError, ValueError, AttributeError):
+        raise bad(f"edges[{i}]", item, "expected {src, dst, weight, bias}") from None
+
+
+__all__ = [
+    "ACTUATOR",
+    "HIDDEN",
+    "NODE_KINDS",
+    "SENSOR",
+    "BodyTable",
+    "Edge",
+    "Genome",
+    "GenomeIndex",
+    "Node",
+    "body_table",
+    "next_id",
+]

@@ -1,0 +1,52 @@
+"""The ``somite`` command line: one sub-command per module of :mod:`somite.commands`.
+
+Bad input never ends in a traceback: a :class:`~somite.errors.SomiteError` (or an argparse
+error) prints one line, ``somite <command>: error: <field>=<value>: <why>``, and exits with 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .errors import SomiteError
+
+COMMANDS = ("simulate", "bench")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but errors are one line (no usage dump) with exit code 2."""
+
+    def error(self, message: str):  # noqa: D102 - argparse's hook
+        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        raise SystemExit(2)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from importlib import import_module
+
+    parser = _Parser(prog="somite", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for name in COMMANDS:
+        module = import_module(f".commands.{name}", __package__)
+        command = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        module.add_arguments(command)
+        command.set_defaults(handler=module.run, prog=command.prog)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.handler(args) or 0)
+    except SomiteError as error:
+        sys.stderr.write(f"{args.prog}: error: {error}\n")
+        return 2
+    except KeyboardInterrupt:
+        sys.stderr.write(f"{args.prog}: interrupted\n")
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,29 @@
+"""``somite bench``: time the episode kernel on the paper's workload, print JSON."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..bench import bench
+from .common import finite_float, print_json
+
+HELP = "Time the simulation kernel (96 random ~200-element controllers, hilly, 30 s); JSON."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--robots", type=int, default=96, help="population size")
+    parser.add_argument("--duration", type=finite_float("duration"), default=30.0, help="[s]")
+    parser.add_argument("--shapes", default="worm,biped", help="comma-separated shapes")
+    parser.add_argument("--no-scaling", action="store_true", help="skip the scaling runs")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..errors import bad
+
+    if args.robots < 4:
+        raise bad("robots", args.robots, "must be at least 4")
+    if not args.duration > 0:
+        raise bad("duration", args.duration, "must be positive")
+    shapes = tuple(s for s in args.shapes.split(",") if s)
+    print_json(bench(shapes, args.robots, args.duration, scaling=not args.no_scaling))
+    return 0

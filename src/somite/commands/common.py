@@ -1,0 +1,31 @@
+"""Argument types and output helpers shared by the sub-commands."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+
+from ..errors import bad
+
+
+def finite_float(field: str):
+    """An argparse type: a finite float, or a one-line error naming ``field``."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(str(bad(field, text, "must be a number"))) from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(str(bad(field, text, "must be a finite number")))
+        return value
+
+    parse.__name__ = field
+    return parse
+
+
+def print_json(data) -> None:
+    json.dump(data, sys.stdout, indent=2, allow_nan=True)
+    sys.stdout.write("\n")

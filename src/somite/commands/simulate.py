@@ -1,0 +1,53 @@
+"""``somite simulate``: one robot, one episode, its outcome."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..brain.controllers import parse_controller
+from ..sim.body import Body
+from ..sim.config import PRESETS, preset
+from ..sim.terrain import TERRAIN_HELP, parse_terrain
+from ..tasks.locomotion import simulate
+from .common import finite_float, print_json
+
+HELP = "Simulate one robot and print how it went (v_x over [5 s, end], distance, ...)."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--shape", default="worm", help="biped, worm, WxH or rows like 1111/1001")
+    parser.add_argument("--sensors", default="paper", help="paper, none, area or all")
+    parser.add_argument("--terrain", default="flat", help=TERRAIN_HELP)
+    parser.add_argument(
+        "--controller", default="sine", help="zero, or sine:freq=F,amp=A,phase=P (1, 1, -1)"
+    )
+    parser.add_argument("--duration", type=finite_float("duration"), default=30.0, help="[s]")
+    parser.add_argument("--preset", default="paper", choices=sorted(PRESETS))
+    parser.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+    parser.add_argument("--json", action="store_true", help="print JSON")
+
+
+def run(args: argparse.Namespace) -> int:
+    body = Body.build(args.shape, args.sensors)
+    terrain = parse_terrain(args.terrain)
+    controller = parse_controller(args.controller)
+    config = preset(args.preset, duration=args.duration)
+    [outcome], _ = simulate([body], [terrain], [controller], config, seeds=args.seed)
+    report = {
+        "shape": body.shape.grid_string(),
+        "terrain": terrain.name,
+        "controller": args.controller,
+        "duration": config.duration,
+        "seed": args.seed,
+        **outcome.to_dict(),
+    }
+    if args.json:
+        print_json(report)
+    else:
+        for key, value in report.items():
+            if isinstance(value, float):
+                value = f"{value:.4f}"
+            elif isinstance(value, list):
+                value = ", ".join(f"{v:.3f}" for v in value)
+            print(f"{key:>17}: {value}")
+    return 0 if outcome.finite else 1

@@ -1,0 +1,323 @@
+"""Initialisation and mutation of graph genomes (original-system.md sections 4.3, 5.3 and 6.2).
+
+Every operator takes a genome and a ``numpy.random.Generator`` and returns a new genome; one
+that cannot act (no edge, no hidden node, no candidate pair) returns an unchanged copy, as the
+authors' operators always return a copy.
+
+- ``mutate_edge``: one uniformly chosen edge gets N(0, sigma^2) added to its weight and its bias.
+- ``add_edge``: one ordered pair u -> v with u not an actuator, v not a sensor, u != v and no
+  edge u -> v yet, chosen with probability proportional to its modularity weight; w, b ~ U(-1, 1).
+- ``remove_edge``: one uniformly chosen edge goes, then isolated hidden nodes are pruned.
+- ``add_node``: one ordered pair (u, v), u not an actuator, v not a sensor, u = v and already
+  connected pairs allowed, chosen like ``add_edge``; a new hidden node w gets edges u -> w and
+  w -> v (w1, b1, w2, b2 ~ U(-1, 1)); the edge u -> v, if any, stays.
+- ``remove_node``: one uniformly chosen hidden node goes with its edges, then pruning.
+
+Modularity bias (section 6.2): with a partition, a pair whose two nodes lie in the same module
+weighs omega, any other pair 1. Without a partition, or with omega = 1, the choice is uniform.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, fields
+from typing import Callable
+
+import numpy as np
+
+from ..brain.genome import ACTUATOR, HIDDEN, SENSOR, Edge, Genome, Node, body_table, next_id
+from ..errors import bad
+from ..modules.partition import Partition
+from ..sim.body import Body
+
+OPERATOR_NAMES = ("mutate_edge", "add_edge", "remove_edge", "add_node", "remove_node")
+NODE_PLACEMENTS = ("module", "uniform")
+
+
+@dataclass(frozen=True)
+class OperatorConfig:
+    """Operator probabilities and parameters (defaults: the paper's, section 5.3).
+
+    The weights-only ablation is ``OperatorConfig(p_mutate_edge=1, p_add_edge=0,
+    p_remove_edge=0, p_add_node=0, p_remove_node=0)``. Probabilities are relative weights of a
+    roulette, so they need not sum to 1.
+
+    Attributes
+    ----------
+    p_mutate_edge, p_add_edge, p_remove_edge, p_add_node, p_remove_node : float
+        Roulette weights of the five operators.
+    sigma : float
+        Standard deviation of the Gaussian added to a weight and a bias by ``mutate_edge``.
+    omega : float
+        Weight of same-module pairs in ``add_edge`` and ``add_node`` (other pairs weigh 1);
+        used only when a partition is given.
+    node_placement : str
+        ``module`` (paper): a node added between two nodes of one module goes to a random voxel
+        of that module; ``uniform`` (authors' code): to a random voxel of the body.
+    """
+
+    p_mutate_edge: float = 0.5
+    p_add_edge: float = 0.1
+    p_remove_edge: float = 0.1
+    p_add_node: float = 0.15
+    p_remove_node: float = 0.15
+    sigma: float = 0.7
+    omega: float = 1.0
+    node_placement: str = "module"
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name == "node_placement":
+                if value not in NODE_PLACEMENTS:
+                    raise bad(f.name, value, f"use one of {NODE_PLACEMENTS}")
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise bad(f.name, value, "must be a number")
+            if not math.isfinite(value):
+                raise bad(f.name, value, "must be finite")
+            if f.name.startswith("p_") and value < 0:
+                raise bad(f.name, value, "probabilities must be >= 0")
+        if sum(self.probabilities) <= 0:
+            raise bad("p_mutate_edge", self.p_mutate_edge, "at least one probability must be > 0")
+        if self.sigma < 0:
+            raise bad("sigma", self.sigma, "must be >= 0")
+        if self.omega <= 0:
+            raise bad("omega", self.omega, "must be > 0")
+
+    @property
+    def probabilities(self) -> tuple[float, ...]:
+        """The operator weights, in the order of :data:`OPERATOR_NAMES`."""
+        return tuple(float(getattr(self, f"p_{name}")) for name in OPERATOR_NAMES)
+
+    def to_dict(self) -> dict:
+        """The options as a JSON-ready dict."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "OperatorConfig":
+        """Inverse of :meth:`to_dict`; missing options take their defaults."""
+        known = {f.name for f in fields(cls)}
+        for key in data:
+            if key not in known:
+                raise bad(key, data[key], f"unknown operator option; use {sorted(known)}")
+        return cls(**data)
+
+
+DEFAULT_CONFIG = OperatorConfig()
+
+
+# -- initialisation -----------------------------------------------------------------------------
+
+
+def initial_genome(body: Body, rng: np.random.Generator) -> Genome:
+    """The minimal controller of ``body`` (section 4.3).
+
+    Every sensor and actuator node, no hidden node, and an edge from each sensor to the actuator
+    of its own voxel with w, b ~ U(-1, 1). Ids follow the authors' order: voxel by voxel (bottom row first), each voxel's sensor slots
+    then its actuator. Weight and bias are drawn in that order, edge by edge.
+    """
+    table = body_table(body)
+    params = rng.uniform(-1.0, 1.0, size=(sum(table.n_slots), 2))
+    nodes: list[Node] = []
+    edges: list[Edge] = []
+    for (x, y), n_slots in zip(body.shape.voxels, table.n_slots):
+        first = len(nodes)
+        actuator = first + n_slots
+        nodes.extend(Node(first + s, x, y, "sensor", s) for s in range(n_slots))
+        nodes.append(Node(actuator, x, y, "actuator"))
+        for s in range(n_slots):
+            w, b = params[len(edges)]
+            edges.append(Edge(first + s, actuator, float(w), float(b)))
+    return Genome(body, tuple(nodes), tuple(edges))
+
+
+# -- operators ----------------------------------------------------------------------------------
+
+
+def mutate_edge(genome: Genome, rng: np.random.Generator, sigma: float = 0.7) -> Genome:
+    """Add N(0, sigma^2) to the weight and the bias of one uniformly chosen edge."""
+    if not (sigma >= 0 and math.isfinite(sigma)):
+        raise bad("sigma", sigma, "must be a finite number >= 0")
+    if not genome.edges:
+        return copy.copy(genome)
+    k = int(rng.integers(len(genome.edges)))
+    dw, db = rng.normal(0.0, sigma, size=2)
+    old = genome.edges[k]
+    new = Edge(old.src, old.dst, float(old.weight + dw), float(old.bias + db))
+    return Genome(genome.body, genome.nodes, genome.edges[:k] + (new,) + genome.edges[k + 1 :])
+
+
+def add_edge(
+    genome: Genome,
+    rng: np.random.Generator,
+    partition: Partition | None = None,
+    omega: float = 1.0,
+) -> Genome:
+    """Add an edge u -> v with w, b ~ U(-1, 1) between a new valid pair, modularity-weighted."""
+    index = genome.index
+    mask = _pair_mask(index.kind)
+    mask[index.src, index.dst] = False
+    np.fill_diagonal(mask, False)
+    pick = _pick_pair(mask, _node_modules(genome, partition), omega, rng)
+    if pick is None:
+        return copy.copy(genome)
+    u, v = pick
+    w, b = rng.uniform(-1.0, 1.0, size=2)
+    edge = Edge(int(index.ids[u]), int(index.ids[v]), float(w), float(b))
+    return Genome(genome.body, genome.nodes, genome.edges + (edge,))
+
+
+def remove_edge(genome: Genome, rng: np.random.Generator) -> Genome:
+    """Remove one uniformly chosen edge, then prune isolated hidden nodes."""
+    if not genome.edges:
+        return copy.copy(genome)
+    keep = np.ones(len(genome.edges), dtype=bool)
+    keep[int(rng.integers(len(genome.edges)))] = False
+    return _rebuild(genome, np.ones(len(genome.nodes), dtype=bool), keep)
+
+
+def add_node(
+    genome: Genome,
+    rng: np.random.Generator,
+    partition: Partition | None = None,
+    omega: float = 1.0,
+    node_placement: str = "module",
+) -> Genome:
+    """Add a hidden node w and edges u -> w -> v for a modularity-weighted pair (u, v).
+
+    ``node_placement="module"`` puts w in a uniformly random voxel of the module of u and v when
+    a partition is given and they share a module, otherwise in a uniformly random voxel of the
+    body; ``"uniform"`` always does the latter.
+    """
+    if node_placement not in NODE_PLACEMENTS:
+        raise bad("node_placement", node_placement, f"use one of {NODE_PLACEMENTS}")
+    index = genome.index
+    modules = _node_modules(genome, partition)
+    pick = _pick_pair(_pair_mask(index.kind), modules, omega, rng)
+    if pick is None:
+        return copy.copy(genome)
+    u, v = pick
+    if node_placement == "module" and modules is not None and modules[u] == modules[v]:
+        candidates = np.flatnonzero(partition.module_index == modules[u])
+    else:
+        candidates = np.arange(genome.body.shape.n_voxels)
+    x, y = genome.body.shape.voxels[int(candidates[rng.integers(len(candidates))])]
+    w1, b1, w2, b2 = rng.uniform(-1.0, 1.0, size=4)
+    hidden = next_id(genome)
+    new_edges = (
+        Edge(int(index.ids[u]), hidden, float(w1), float(b1)),
+        Edge(hidden, int(index.ids[v]), float(w2), float(b2)),
+    )
+    node = Node(hidden, x, y, "hidden")
+    return Genome(genome.body, genome.nodes + (node,), genome.edges + new_edges)
+
+
+def remove_node(genome: Genome, rng: np.random.Generator) -> Genome:
+    """Remove one uniformly chosen hidden node and its edges, then prune isolated hidden nodes."""
+    index = genome.index
+    hidden = np.flatnonzero(index.kind == HIDDEN)
+    if hidden.size == 0:
+        return copy.copy(genome)
+    gone = int(hidden[rng.integers(hidden.size)])
+    keep_nodes = np.ones(len(genome.nodes), dtype=bool)
+    keep_nodes[gone] = False
+    keep_edges = (index.src != gone) & (index.dst != gone)
+    return _rebuild(genome, keep_nodes, keep_edges)
+
+
+def prune(genome: Genome) -> Genome:
+    """Remove the hidden nodes that have neither incoming nor outgoing edges."""
+    return _rebuild(
+        genome, np.ones(len(genome.nodes), dtype=bool), np.ones(len(genome.edges), dtype=bool)
+    )
+
+
+# -- the roulette -------------------------------------------------------------------------------
+
+# name -> how mutate() calls it: (genome, rng, config, partition) -> child.
+_APPLY: dict[str, Callable] = {
+    "mutate_edge": lambda g, rng, c, p: mutate_edge(g, rng, c.sigma),
+    "add_edge": lambda g, rng, c, p: add_edge(g, rng, p, c.omega),
+    "remove_edge": lambda g, rng, c, p: remove_edge(g, rng),
+    "add_node": lambda g, rng, c, p: add_node(g, rng, p, c.omega, c.node_placement),
+    "remove_node": lambda g, rng, c, p: remove_node(g, rng),
+}
+
+
+def mutate(
+    genome: Genome,
+    rng: np.random.Generator,
+    config: OperatorConfig | None = None,
+    partition: Partition | None = None,
+) -> tuple[Genome, str]:
+    """Pick an operator by roulette over ``config``'s probabilities and apply it.
+
+    Returns
+    -------
+    (Genome, str)
+        The child and the name of the operator applied (one of :data:`OPERATOR_NAMES`).
+    """
+    config = config or DEFAULT_CONFIG
+    weights = config.probabilities
+    spin = rng.random() * sum(weights)
+    for name, weight in zip(OPERATOR_NAMES, weights):
+        # A zero weight never wins: spin < 0 is false.
+        if spin < weight:
+            break
+        spin -= weight
+    else:
+        # Rounding ran the spin past the end: the last operator that can win takes it.
+        name = next(n for n, w in zip(reversed(OPERATOR_NAMES), reversed(weights)) if w > 0)
+    return _APPLY[name](genome, rng, config, partition), name
+
+
+# -- helpers ------------------------------------------------------------------------------------
+
+
+def _pair_mask(kind: np.ndarray) -> np.ndarray:
+    """(N, N) bool: u -> v allowed by kinds alone (u not an actuator, v not a sensor)."""
+    return (kind != ACTUATOR)[:, None] & (kind != SENSOR)[None, :]
+
+
+def _node_modules(genome: Genome, partition: Partition | None) -> np.ndarray | None:
+    """(N,) module of each node's voxel, or None without a partition."""
+    if partition is None:
+        return None
+    if partition.shape != genome.body.shape:
+        raise bad(
+            "partition", partition.grid_string(),
+            f"partition is for shape {partition.shape.grid_string()}, "
+            f"the genome's body is {genome.body.shape.grid_string()}",
+        )
+    return partition.module_index[genome.index.voxel]
+
+
+def _pick_pair(mask, modules, omega: float, rng: np.random.Generator) -> tuple[int, int] | None:
+    """Draw one True cell (u, v) of ``mask``; same-module cells weigh ``omega``, others 1."""
+    if not (omega > 0 and math.isfinite(omega)):
+        raise bad("omega", omega, "must be a finite number > 0")
+    flat = np.flatnonzero(mask)
+    if flat.size == 0:
+        return None
+    if modules is None or omega == 1.0:
+        k = flat[rng.integers(flat.size)]
+    else:
+        same = (modules[:, None] == modules[None, :]).ravel()[flat]
+        cumulative = np.cumsum(np.where(same, omega, 1.0))
+        at = np.searchsorted(cumulative, rng.random() * cumulative[-1], side="right")
+        k = flat[min(int(at), flat.size - 1)]
+    return divmod(int(k), mask.shape[1])
+
+
+def _rebuild(genome: Genome, keep_nodes: np.ndarray, keep_edges: np.ndarray) -> Genome:
+    """The genome restricted to the kept nodes and edges, minus hidden nodes left isolated."""
+    index = genome.index
+    touched = np.zeros(len(genome.nodes), dtype=bool)
+    touched[index.src[keep_edges]] = True
+    touched[index.dst[keep_edges]] = True
+    keep_nodes = keep_nodes & ((index.kind != HIDDEN) | touched)
+    nodes = tuple(n for n, k in zip(genome.nodes, keep_nodes.tolist()) if k)
+    edges = tuple(e for e, k in zip(genome.edges, keep_edges.tolist()) if k)
+    return Genome(genome.body, nodes, edges)

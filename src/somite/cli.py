@@ -7,11 +7,17 @@ error) prints one line, ``somite <command>: error: <field>=<value>: <why>``, and
 from __future__ import annotations
 
 import argparse
+import pkgutil
 import sys
 
+from . import commands
 from .errors import SomiteError
 
-COMMANDS = ("simulate", "bench")
+
+def command_names() -> list[str]:
+    """Every module of :mod:`somite.commands` except the shared helpers is a sub-command."""
+    names = (m.name for m in pkgutil.iter_modules(commands.__path__))
+    return sorted(n for n in names if not n.startswith("_") and n != "common")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -27,9 +33,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     parser = _Parser(prog="somite", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    for name in COMMANDS:
+    for name in command_names():
         module = import_module(f".commands.{name}", __package__)
-        command = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        command = sub.add_parser(name.replace("_", "-"), help=module.HELP, description=module.HELP)
         module.add_arguments(command)
         command.set_defaults(handler=module.run, prog=command.prog)
     return parser

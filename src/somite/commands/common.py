@@ -29,3 +29,19 @@ def finite_float(field: str):
 def print_json(data) -> None:
     json.dump(data, sys.stdout, indent=2, allow_nan=True)
     sys.stdout.write("\n")
+
+
+def load_genome(path: str):
+    """A genome from a genome JSON file, or from a run directory's ``best.json``."""
+    from pathlib import Path
+
+    from ..brain.genome import Genome
+
+    target = Path(path)
+    if target.is_dir():
+        if not (target / "best.json").is_file():
+            raise bad("genome", path, "a run directory without best.json")
+        target = target / "best.json"
+    elif not target.exists():
+        raise bad("genome", path, "no such file or run directory")
+    return Genome.load(target)

@@ -1,0 +1,52 @@
+"""``somite evaluate``: re-run a saved genome on fixed terrains and report v_x."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from ..errors import bad
+from ..sim.config import PRESETS, preset
+from ..sim.terrain import parse_terrain
+from ..tasks.validation import evaluate, validation_terrains
+from .common import finite_float, load_genome, print_json
+
+HELP = "Evaluate a genome (file or run directory) on validation terrains; per-terrain v_x."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("genome", help="genome JSON, or a run directory (its best.json)")
+    parser.add_argument("--terrain", action="append", dest="terrains",
+                        help="terrain name (repeatable); default: the 10 validation terrains")
+    parser.add_argument("--validation", type=int, default=10,
+                        help="how many fixed validation terrains when no --terrain is given")
+    parser.add_argument("--duration", type=finite_float("duration"), default=30.0, help="[s]")
+    parser.add_argument("--preset", default="paper", choices=sorted(PRESETS))
+    parser.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+    parser.add_argument("--json", action="store_true", help="print JSON")
+
+
+def run(args: argparse.Namespace) -> int:
+    genome = load_genome(args.genome)
+    if args.terrains:
+        terrains = [parse_terrain(name) for name in args.terrains]
+    else:
+        if args.validation < 1:
+            raise bad("validation", args.validation, "must be at least 1")
+        terrains = validation_terrains(args.validation)
+    config = preset(args.preset, duration=args.duration)
+    velocities = evaluate([genome], terrains, config, args.seed)[0]
+    report = {
+        "genome": args.genome,
+        "terrains": {t.name: float(v) for t, v in zip(terrains, velocities)},
+        "mean_velocity": float(np.nanmean(velocities)) if np.isfinite(velocities).any() else None,
+        "non_finite": int(np.isnan(velocities).sum()),
+    }
+    if args.json:
+        print_json(report)
+    else:
+        for name, value in report["terrains"].items():
+            print(f"{name:>22}: {value:8.4f} m/s")
+        print(f"{'mean':>22}: {report['mean_velocity']:8.4f} m/s")
+    return 0

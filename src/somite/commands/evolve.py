@@ -1,0 +1,102 @@
+"""``somite evolve``: run the paper's EA into a run directory (resumable)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+from ..errors import bad
+from ..evolution.config import load_toml, resolve
+from ..experiments.runner import RunDirectory, RunState, evolve
+from .common import finite_float
+
+HELP = "Evolve a graph controller with the paper's EA; writes logs, bests and checkpoints."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", required=True, help="run directory")
+    parser.add_argument("--config", help="TOML file with any of the options below")
+    parser.add_argument("--preset", help="paper (default) or original-code")
+    parser.add_argument("--shape", help="biped, worm, WxH or rows like 1111/1001")
+    parser.add_argument("--sensors", help="sensor preset: paper, none, area or all")
+    parser.add_argument("--generations", type=int)
+    parser.add_argument("--population", type=int)
+    parser.add_argument("--seed", type=int)
+    parser.add_argument("--terrain", help="hilly-1-10-rnd (a new terrain per evaluation) or a name")
+    parser.add_argument("--duration", type=finite_float("duration"), help="episode length [s]")
+    parser.add_argument("--omega", type=finite_float("omega"), help="modularity bias (1 = none)")
+    parser.add_argument("--modules", help="partition for omega: paper, worm-halves, biped-legs, grid")
+    parser.add_argument("--weights-only", action="store_true", default=None,
+                        help="the ablation: only weight mutation (p_mutate_edge 1, others 0)")
+    parser.add_argument("--checkpoint-every", type=int)
+    parser.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
+    parser.add_argument("--force", action="store_true", help="overwrite an existing run")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+_OPTIONS = ("preset", "shape", "sensors", "generations", "population", "seed", "terrain",
+            "duration", "omega", "modules", "weights_only", "checkpoint_every")
+
+
+def run(args: argparse.Namespace) -> int:
+    cli = {k: getattr(args, k) for k in _OPTIONS if getattr(args, k) is not None}
+    run_dir = RunDirectory(args.out)
+    if args.resume and args.force:
+        raise bad("resume", True, "--resume and --force exclude each other")
+    if args.resume:
+        saved = run_dir.saved_config().to_dict()
+        changed = {k: v for k, v in cli.items() if k != "generations" and saved.get(k) != v}
+        if args.config or changed:
+            raise bad("resume", sorted(changed) or args.config,
+                      "a resumed run keeps its configuration (only --generations may change)")
+        config = resolve({**saved, **cli})
+    else:
+        options = load_toml(args.config) if args.config else {}
+        config = resolve({**options, **cli})
+    with _progress(config.generations, args.quiet) as report:
+        state = evolve(config, args.out, resume=args.resume, force=args.force, progress=report)
+    best = state.population.fitness[state.population.best()]
+    if not args.quiet:
+        print(f"best v_x {best:.3f} m/s after {state.generation} generations -> "
+              f"{run_dir.file('best.json')}")
+    return 0
+
+
+class _progress:
+    """A rich progress bar (generation, best v_x, |G|, ETA), or nothing when quiet."""
+
+    def __init__(self, generations: int, quiet: bool) -> None:
+        self.generations = generations
+        self.quiet = quiet
+        self.bar = None
+
+    def __enter__(self):
+        if self.quiet:
+            return None
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
+        from rich.progress import TimeRemainingColumn
+
+        self.bar = Progress(
+            TextColumn("generation"),
+            MofNCompleteColumn(),
+            BarColumn(),
+            TextColumn("best v_x {task.fields[best]} m/s  |G| {task.fields[size]}"),
+            TimeRemainingColumn(),
+        )
+        self.bar.start()
+        self.task = self.bar.add_task("evolve", total=self.generations, best="-", size="-")
+        return self.update
+
+    def update(self, state: RunState, row: dict) -> None:
+        best = row["best_velocity"]
+        self.bar.update(
+            self.task,
+            completed=state.generation,
+            best="nan" if math.isnan(best) else f"{best:.3f}",
+            size=row["best_size"],
+        )
+
+    def __exit__(self, *exc) -> None:
+        if self.bar is not None:
+            self.bar.stop()

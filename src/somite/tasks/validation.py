@@ -1,0 +1,47 @@
+"""Evaluation of controllers on fixed validation terrains (transferability, ``somite evaluate``).
+
+Training draws hilly seeds from [0, 10000) (original-system.md section 1.5); the validation
+terrains use seeds from 10000 on, so they are never training terrains.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from ..brain.compile import compile_genome
+from ..brain.genome import Genome
+from ..sim.config import SimConfig
+from ..sim.terrain import Terrain, hilly
+from .locomotion import simulate
+
+VALIDATION_SEED0 = 10000
+
+
+def validation_terrains(count: int = 10) -> list[Terrain]:
+    """The ``count`` fixed hilly validation terrains (hilly-1-10-10000, hilly-1-10-10001, ...)."""
+    return [hilly(1.0, 10.0, VALIDATION_SEED0 + i) for i in range(count)]
+
+
+def evaluate(
+    genomes: Sequence[Genome],
+    terrains: Sequence[Terrain],
+    config: SimConfig | None = None,
+    seed: int = 0,
+) -> np.ndarray:
+    """v_x [m/s] of every genome on every terrain, shape (G, T), in one batch.
+
+    NaN marks an episode that went non-finite.
+    """
+    config = config or SimConfig()
+    bodies, worlds, controllers = [], [], []
+    for genome in genomes:
+        arrays = compile_genome(genome)
+        for terrain in terrains:
+            bodies.append(genome.body)
+            worlds.append(terrain)
+            controllers.append(arrays)
+    outcomes, _ = simulate(bodies, worlds, controllers, config, seeds=seed)
+    velocities = np.array([o.velocity for o in outcomes], dtype=np.float64)
+    return velocities.reshape(len(genomes), len(terrains))

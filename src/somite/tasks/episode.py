@@ -52,6 +52,7 @@ class Trace(NamedTuple):
 
     com: np.ndarray  # (B, n_steps + 1, 2) centre of mass after each step [m]
     max_speed: np.ndarray  # (B,) largest corner speed seen [m/s]
+    min_area: np.ndarray  # (B,) smallest signed voxel area ratio seen (< 0: inverted)
     status: np.ndarray  # (B,) int32 STATUS_*
     pos: np.ndarray  # (B or 0, n_steps + 1, P, 2) corner positions [m]
     actuation: np.ndarray  # (B or 0, n_steps + 1, V)
@@ -67,6 +68,7 @@ def new_trace(n_robots: int, n_steps: int, system, record: bool) -> Trace:
     return Trace(
         com=np.full((n_robots, n_steps + 1, 2), np.nan),
         max_speed=np.zeros(n_robots),
+        min_area=np.full(n_robots, np.inf),
         status=np.zeros(n_robots, dtype=np.int32),
         pos=np.zeros((rows, n_steps + 1, n_points, 2)),
         actuation=np.zeros((rows, n_steps + 1, n_voxels)),
@@ -165,6 +167,7 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
     if recording:
         _record(b, 0, n_points, n_voxels, n_readings, pos, contact, actuation, readings, trace)
     fastest = 0.0
+    smallest = np.inf
     for k in range(1, n_steps + 1):
         set_rest_lengths(n_springs, system.spring_owners[b], rest0, actuation, params, rest)
         for _ in range(substeps):
@@ -180,6 +183,8 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
         trace.com[b, k, 0] = cx
         trace.com[b, k, 1] = cy
         voxel_state(n_voxels, corners, pos, vel, with_angle, voxels)
+        for v in range(n_voxels):
+            smallest = min(smallest, voxels[v, 4])
         update_histories(k - 1, n_voxels, corners, contact, voxels, touch_hist, vel_hist, params)
         sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
               touch_hist, vel_hist, rays, xs, ys, n_terrain, params, readings)
@@ -188,6 +193,7 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
         if recording:
             _record(b, k, n_points, n_voxels, n_readings, pos, contact, actuation, readings, trace)
     trace.max_speed[b] = math.sqrt(fastest)
+    trace.min_area[b] = smallest
 
 
 @njit(parallel=True)

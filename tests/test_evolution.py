@@ -1,0 +1,179 @@
+"""The EA, run directories, reproducibility and resume (issue: the paper's EA)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from somite.brain.genome import Genome
+from somite.cli import main
+from somite.errors import SomiteError
+from somite.evolution.config import EvolutionConfig, resolve
+from somite.evolution.ea import tournament, truncate
+from somite.experiments.runner import LOG_COLUMNS, evolve
+
+SMALL = {"shape": "worm", "population": 8, "generations": 4, "duration": 3.0, "seed": 3}
+
+
+def rows(run: Path) -> list[dict]:
+    with open(run / "log.csv") as handle:
+        return list(csv.DictReader(handle))
+
+
+def without_time(table: list[dict]) -> list[dict]:
+    return [{k: v for k, v in row.items() if k != "elapsed_seconds"} for row in table]
+
+
+def test_log_has_one_row_per_generation(tmp_path):
+    config = resolve(SMALL)
+    evolve(config, tmp_path / "run")
+    table = rows(tmp_path / "run")
+    assert list(table[0]) == list(LOG_COLUMNS)
+    assert [int(r["generation"]) for r in table] == list(range(5))
+    assert [int(r["evaluations"]) for r in table] == [8, 16, 24, 32, 40]
+    assert table[0]["best_operator"] == "init" and table[0]["best_size"] == "92"
+    bests = (tmp_path / "run" / "bests.jsonl").read_text().splitlines()
+    assert len(bests) == 5
+    last = json.loads(bests[-1])
+    assert Genome.from_dict(last["genome"]) == Genome.load(tmp_path / "run" / "best.json")
+    saved = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert resolve(saved) == config
+
+
+def test_same_seed_same_log(tmp_path):
+    for name in ("a", "b"):
+        evolve(resolve(SMALL), tmp_path / name)
+    assert without_time(rows(tmp_path / "a")) == without_time(rows(tmp_path / "b"))
+    assert (tmp_path / "a" / "best.json").read_text() == (tmp_path / "b" / "best.json").read_text()
+    evolve(resolve({**SMALL, "seed": 4}), tmp_path / "c")
+    assert without_time(rows(tmp_path / "c")) != without_time(rows(tmp_path / "a"))
+
+
+def test_original_code_preset_reevaluates_parents(tmp_path):
+    evolve(resolve({**SMALL, "preset": "original-code", "generations": 2}), tmp_path / "run")
+    assert [int(r["evaluations"]) for r in rows(tmp_path / "run")] == [8, 24, 40]
+
+
+def test_weights_only_never_changes_topology(tmp_path):
+    state = evolve(resolve({**SMALL, "weights_only": True}), tmp_path / "run")
+    assert {(g.n_nodes, g.n_edges) for g in state.population.genomes} == {(52, 40)}
+    assert {r["best_operator"] for r in rows(tmp_path / "run")} <= {"init", "mutate_edge"}
+
+
+def test_nan_counts_as_the_worst():
+    fitness = np.array([np.nan, 0.1, 0.5, np.nan, -3.0])
+    rng = np.random.default_rng(0)
+    assert list(truncate(fitness, 3, rng)) == [2, 1, 4]
+    # A tournament that draws (almost surely) everyone picks the best, never a NaN.
+    assert {tournament(fitness, 60, rng) for _ in range(100)} == {2}
+    assert tournament(np.array([np.nan, np.nan]), 3, rng) in (0, 1)
+
+
+def test_resume_after_sigkill_matches_uninterrupted_run(tmp_path):
+    args = ["evolve", "--shape", "worm", "--population", "10", "--generations", "40",
+            "--duration", "2", "--seed", "5", "--checkpoint-every", "6", "--quiet"]
+    assert main([*args, "--out", str(tmp_path / "whole")]) == 0
+    killed = tmp_path / "killed"
+    child = subprocess.Popen([sys.executable, "-m", "somite.cli", *args, "--out", str(killed)])
+    deadline = time.time() + 120
+    while time.time() < deadline and child.poll() is None:
+        log = killed / "log.csv"
+        if (killed / "checkpoint.json").exists() and log.exists():
+            if len(log.read_text().splitlines()) >= 16:
+                break
+        time.sleep(0.01)
+    if child.poll() is None:
+        os.kill(child.pid, signal.SIGKILL)
+    child.wait()
+    assert child.returncode == -signal.SIGKILL, "the run finished before it could be killed"
+    assert len(rows(killed)) < 41
+    assert main([*args, "--out", str(killed), "--resume"]) == 0
+    assert without_time(rows(killed)) == without_time(rows(tmp_path / "whole"))
+    assert (killed / "best.json").read_text() == (tmp_path / "whole" / "best.json").read_text()
+    whole_bests = (tmp_path / "whole" / "bests.jsonl").read_text()
+    assert (killed / "bests.jsonl").read_text() == whole_bests
+
+
+def test_toml_configuration(tmp_path):
+    good = tmp_path / "good.toml"
+    good.write_text('shape = "biped"\npopulation = 6\ngenerations = 1\nduration = 2\nomega = 10\n')
+    assert main(["evolve", "--config", str(good), "--out", str(tmp_path / "run"), "--quiet"]) == 0
+    saved = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert saved["shape"] == "biped" and saved["omega"] == 10.0
+    assert rows(tmp_path / "run")[0]["best_size"] == "80"  # 45 nodes + 35 edges
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("populaton = 6\n", "config.populaton=6: unknown option"),
+        ('population = "many"\n', "population='many': must be of type int"),
+        ("omega = true\n", "omega=True: must be of type float"),
+        ("omega = -1.0\n", "omega=-1.0: must be positive"),
+        ("generations = [\n", "not valid TOML"),
+    ],
+)
+def test_bad_toml_is_one_line(tmp_path, capsys, text, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    code = main(["evolve", "--config", str(path), "--out", str(tmp_path / "run"), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and err.count("\n") == 1
+    assert not (tmp_path / "run").exists()
+
+
+def test_resume_refuses_missing_or_damaged_checkpoint(tmp_path, capsys):
+    run = tmp_path / "run"
+    run.mkdir()
+    assert main(["evolve", "--out", str(run), "--resume", "--quiet"]) == 2
+    assert "no config.json" in capsys.readouterr().err
+    evolve(resolve(SMALL), run)
+    (run / "checkpoint.json").write_text('{"format": "somite-checkpoint", "version": 1, "rng"')
+    before = {p.name: p.read_bytes() for p in run.iterdir()}
+    assert main(["evolve", "--out", str(run), "--resume", "--quiet"]) == 2
+    assert "damaged checkpoint" in capsys.readouterr().err
+    assert {p.name: p.read_bytes() for p in run.iterdir()} == before
+    (run / "checkpoint.json").unlink()
+    assert main(["evolve", "--out", str(run), "--resume", "--quiet"]) == 2
+    assert "no checkpoint.json" in capsys.readouterr().err
+
+
+def test_existing_run_needs_resume_or_force(tmp_path, capsys):
+    args = ["evolve", "--population", "6", "--generations", "1", "--duration", "2", "--quiet",
+            "--out", str(tmp_path / "run")]
+    assert main(args) == 0
+    first = (tmp_path / "run" / "log.csv").read_text()
+    assert main(args) == 2
+    assert "use --resume or --force" in capsys.readouterr().err
+    assert (tmp_path / "run" / "log.csv").read_text() == first
+    assert main([*args, "--force", "--seed", "9"]) == 0
+    assert (tmp_path / "run" / "log.csv").read_text() != first
+
+
+def test_config_rejects_bad_values():
+    with pytest.raises(SomiteError, match="^tournament=0"):
+        EvolutionConfig(tournament=0)
+    with pytest.raises(SomiteError, match="^preset='fast'"):
+        resolve({"preset": "fast"})
+    with pytest.raises(SomiteError, match="^duration=nan"):
+        resolve({"duration": math.nan})
+
+
+def test_a_short_run_improves(tmp_path):
+    """The demo's setting: best v_x grows clearly within 30 generations (seeded, so exact)."""
+    config = resolve({"shape": "worm", "population": 48, "generations": 30, "duration": 20.0})
+    evolve(config, tmp_path / "run")
+    table = rows(tmp_path / "run")
+    first, last = float(table[0]["best_velocity"]), float(table[-1]["best_velocity"])
+    assert last > first + 0.2
+    assert float(table[-1]["median_size"]) >= float(table[0]["median_size"])

@@ -7,7 +7,7 @@ import math
 import time
 
 from ..errors import bad
-from ..evolution.config import load_toml, resolve
+from ..evolution.config import EvolutionConfig, load_toml, resolve
 from ..experiments.runner import RunDirectory, RunState, evolve
 from .common import finite_float
 
@@ -15,11 +15,16 @@ HELP = "Evolve a graph controller with the paper's EA; writes logs, bests and ch
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--shape", help="biped, worm, WxH or rows like 1111/1001")
+    parser.add_argument("--sensors", help="sensor preset: paper, none, area or all")
+    add_evolution_options(parser)
+
+
+def add_evolution_options(parser: argparse.ArgumentParser) -> None:
+    """The options shared by ``evolve`` and ``reoptimize``."""
     parser.add_argument("--out", required=True, help="run directory")
     parser.add_argument("--config", help="TOML file with any of the options below")
     parser.add_argument("--preset", help="paper (default) or original-code")
-    parser.add_argument("--shape", help="biped, worm, WxH or rows like 1111/1001")
-    parser.add_argument("--sensors", help="sensor preset: paper, none, area or all")
     parser.add_argument("--generations", type=int)
     parser.add_argument("--population", type=int)
     parser.add_argument("--seed", type=int)
@@ -40,7 +45,17 @@ _OPTIONS = ("preset", "shape", "sensors", "generations", "population", "seed", "
 
 
 def run(args: argparse.Namespace) -> int:
-    cli = {k: getattr(args, k) for k in _OPTIONS if getattr(args, k) is not None}
+    config = configuration(args)
+    with progress_bar(config.generations, args.quiet) as report:
+        state = evolve(config, args.out, resume=args.resume, force=args.force, progress=report)
+    summarise(state, RunDirectory(args.out), args.quiet)
+    return 0
+
+
+def configuration(args: argparse.Namespace, **fixed) -> EvolutionConfig:
+    """The run's configuration from TOML and options, or the saved one on ``--resume``."""
+    cli = {k: getattr(args, k) for k in _OPTIONS if getattr(args, k, None) is not None}
+    cli.update(fixed)
     run_dir = RunDirectory(args.out)
     if args.resume and args.force:
         raise bad("resume", True, "--resume and --force exclude each other")
@@ -54,16 +69,17 @@ def run(args: argparse.Namespace) -> int:
     else:
         options = load_toml(args.config) if args.config else {}
         config = resolve({**options, **cli})
-    with _progress(config.generations, args.quiet) as report:
-        state = evolve(config, args.out, resume=args.resume, force=args.force, progress=report)
+    return config
+
+
+def summarise(state: RunState, run_dir: RunDirectory, quiet: bool) -> None:
     best = state.population.fitness[state.population.best()]
-    if not args.quiet:
+    if not quiet:
         print(f"best v_x {best:.3f} m/s after {state.generation} generations -> "
               f"{run_dir.file('best.json')}")
-    return 0
 
 
-class _progress:
+class progress_bar:
     """A rich progress bar (generation, best v_x, |G|, ETA), or nothing when quiet."""
 
     def __init__(self, generations: int, quiet: bool) -> None:

@@ -17,6 +17,7 @@ from ..sim.config import PRESETS as SIM_PRESETS
 from ..sim.config import SimConfig, preset as sim_preset
 from .operators import NODE_PLACEMENTS, OperatorConfig
 
+SEEDED_MUTANTS = ("population-1", "population")
 RANDOM_TERRAIN = "hilly-1-10-rnd"
 """The training terrain: a fresh ``hilly-1-10-SEED`` for every evaluation."""
 
@@ -28,7 +29,10 @@ class EvolutionConfig:
     ``terrain`` may end in ``-rnd`` (a new random seed in [0, 10000) for every evaluation,
     drawn from the run's generator) or name one fixed terrain. ``modules`` names the partition
     used by the biased operators (``paper``, ``worm-halves``, ``biped-legs`` or a label grid);
-    it only matters when ``omega`` != 1.
+    it only matters when ``omega`` != 1. ``start`` names the genome a re-optimisation started
+    from (empty for a run from scratch); it then begins with that genome and
+    ``seeded_mutants`` mutants of it (``population-1`` in the paper, ``population`` in the
+    authors' code, whose first population has one individual more).
     """
 
     shape: str = "worm"
@@ -52,6 +56,8 @@ class EvolutionConfig:
     p_remove_node: float = 0.15
     sigma: float = 0.7
     node_placement: str = "module"
+    seeded_mutants: str = "population-1"
+    start: str = ""
     checkpoint_every: int = 10
 
     def __post_init__(self) -> None:
@@ -71,6 +77,8 @@ class EvolutionConfig:
             raise bad("checkpoint_every", self.checkpoint_every, "must be at least 1")
         if not self.omega > 0:
             raise bad("omega", self.omega, "must be positive")
+        if self.seeded_mutants not in SEEDED_MUTANTS:
+            raise bad("seeded_mutants", self.seeded_mutants, f"use one of {SEEDED_MUTANTS}")
         if self.node_placement not in NODE_PLACEMENTS:
             raise bad("node_placement", self.node_placement, f"use one of {NODE_PLACEMENTS}")
         self.operators()  # validates the probabilities and sigma
@@ -92,6 +100,9 @@ class EvolutionConfig:
             self.node_placement,
         )
 
+    def n_seeded_mutants(self) -> int:
+        return self.population - (self.seeded_mutants == "population-1")
+
     def sim(self) -> SimConfig:
         return sim_preset(self.preset, duration=float(self.duration),
                           transient=float(self.transient))
@@ -103,7 +114,7 @@ class EvolutionConfig:
 EVOLUTION_PRESETS: dict[str, dict] = {
     "paper": {},
     "original-code": {"preset": "original-code", "reevaluate_parents": True,
-                      "node_placement": "uniform"},
+                      "node_placement": "uniform", "seeded_mutants": "population"},
 }
 """The evolutionary half of each preset (decisions.md); ``preset`` also picks the simulator's."""
 

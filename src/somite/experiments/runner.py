@@ -36,6 +36,7 @@ from ..evolution.ea import (
     Population,
     generation,
     initial_population,
+    seeded_population,
     statistics,
 )
 from ..modules.partition import Partition
@@ -234,23 +235,33 @@ def evolve(
     resume: bool = False,
     force: bool = False,
     progress: Progress | None = None,
+    start: Genome | None = None,
 ) -> RunState:
     """Run (or resume) an evolution into the run directory ``out``; returns the final state.
 
+    With ``start`` (a re-optimisation), the first population is ``start`` and mutants of it,
+    and the body is ``start``'s; otherwise the body is built from the configuration.
     ``progress`` is called after every generation with the state and the log row.
     """
     run_dir = RunDirectory(out)
-    body = Body.build(config.shape, config.sensors)
+    if resume:
+        state = load_checkpoint(run_dir.file("checkpoint.json"))
+        body = state.population.genomes[0].body
+    else:
+        body = start.body if start is not None else Body.build(config.shape, config.sensors)
     partition = Partition.parse(config.modules, body.shape) if config.omega != 1.0 else None
     evaluate = Evaluator(body, config)
     if resume:
-        state = load_checkpoint(run_dir.file("checkpoint.json"))
         run_dir.cut_back(state.generation)
     else:
         run_dir.prepare_new(config, force)
         started = time.perf_counter()
         rng = np.random.default_rng(config.seed)
-        population = initial_population(body, config, evaluate, rng)
+        if start is None:
+            population = initial_population(body, config, evaluate, rng)
+        else:
+            population = seeded_population(start, config, evaluate, rng, partition,
+                                           config.n_seeded_mutants())
         state = RunState(0, len(population.genomes), time.perf_counter() - started,
                          population, rng)
         _record(run_dir, state, statistics(population, population.fitness), progress)

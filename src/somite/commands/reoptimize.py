@@ -1,0 +1,43 @@
+"""``somite reoptimize``: re-evolve a (reassembled) genome and track its transferability."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..errors import bad
+from ..experiments.reoptimize import donor_velocity, transfer_curve
+from ..experiments.runner import RunDirectory, evolve
+from .common import load_genome
+from .evolve import add_evolution_options, configuration, progress_bar, summarise
+
+HELP = ("Re-optimise a genome with the EA from it and its mutants (510 generations in the "
+        "paper); writes the run and transfer.csv (rho per generation).")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("genome", help="the genome to start from (e.g. reassembled.json)")
+    parser.add_argument("--donors", nargs="+", default=(),
+                        help="donor genomes: rho = v_x / mean v_x of the donors")
+    parser.add_argument("--validation", type=int, default=10,
+                        help="fixed validation terrains for rho")
+    add_evolution_options(parser)
+    parser.set_defaults(generations=510)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.validation < 1:
+        raise bad("validation", args.validation, "must be at least 1")
+    genome = load_genome(args.genome)
+    donors = [load_genome(path) for path in args.donors]
+    shape = genome.body.shape.grid_string()
+    config = configuration(args, shape=shape, start=str(args.genome))
+    with progress_bar(config.generations, args.quiet) as report:
+        state = evolve(config, args.out, resume=args.resume, force=args.force, progress=report,
+                       start=None if args.resume else genome)
+    donors_mean = donor_velocity(donors, config.sim(), args.validation) if donors else None
+    rows = transfer_curve(args.out, donors_mean, config.sim(), args.validation)
+    summarise(state, RunDirectory(args.out), args.quiet)
+    if not args.quiet and donors_mean is not None:
+        print(f"rho: {rows[0]['rho']:.3f} at the start, {rows[-1]['rho']:.3f} at the end "
+              f"(donors {donors_mean:.3f} m/s on {args.validation} validation terrains)")
+    return 0

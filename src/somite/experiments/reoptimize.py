@@ -1,0 +1,57 @@
+"""Re-optimisation of a reassembled robot and its transferability over generations.
+
+The paper (section 6) re-evolves a reassembled genome G' with the same EA, starting from G'
+and mutants of it, for 510 generations, and plots rho = v_x(best) / mean(v_x(donors)) along the
+way (Figures 7, 8). Here every velocity in rho is measured on the same fixed validation terrains
+(decisions.md), and the best of each generation is evaluated once per distinct genome.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from ..brain.genome import Genome
+from ..sim.config import SimConfig
+from ..tasks.validation import evaluate, validation_terrains
+from .runner import RunDirectory, write_atomic
+
+TRANSFER_COLUMNS = ("generation", "training_velocity", "validation_velocity", "rho")
+
+
+def donor_velocity(donors: Sequence[Genome], config: SimConfig, n_terrains: int) -> float:
+    """Mean over donors of each donor's mean v_x on the validation terrains."""
+    velocities = evaluate(list(donors), validation_terrains(n_terrains), config)
+    return float(np.mean(np.nanmean(velocities, axis=1)))
+
+
+def transfer_curve(run: str | Path, donors_mean: float | None, config: SimConfig,
+                   n_terrains: int = 10) -> list[dict]:
+    """rho of every generation's best, from ``bests.jsonl``; written to ``transfer.csv``."""
+    run_dir = RunDirectory(run)
+    entries = [json.loads(line) for line in run_dir.file("bests.jsonl").read_text().splitlines()]
+    keys = [json.dumps(e["genome"], sort_keys=True) for e in entries]
+    distinct = list(dict.fromkeys(keys))
+    genomes = [Genome.from_dict(json.loads(k)) for k in distinct]
+    velocities = np.nanmean(evaluate(genomes, validation_terrains(n_terrains), config), axis=1)
+    by_key = dict(zip(distinct, velocities))
+    rows = []
+    for entry, key in zip(entries, keys):
+        validation = float(by_key[key])
+        rows.append({
+            "generation": entry["generation"],
+            "training_velocity": entry["velocity"],
+            "validation_velocity": validation,
+            "rho": validation / donors_mean if donors_mean else None,
+        })
+    out = io.StringIO()
+    writer = csv.DictWriter(out, TRANSFER_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows(rows)
+    write_atomic(run_dir.file("transfer.csv"), out.getvalue())
+    return rows

@@ -146,35 +146,9 @@ def enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel):
 
 
 @njit(inline="always")
-def segment_at(xs, n, x) -> int:
-    """Index i of the terrain segment [xs[i], xs[i+1]] under x (clamped to the terrain)."""
-    lo = 0
-    hi = n - 2
-    if x <= xs[0]:
-        return 0
-    if x >= xs[n - 1]:
-        return n - 2
-    while lo < hi:
-        mid = (lo + hi + 1) // 2
-        if xs[mid] <= x:
-            lo = mid
-        else:
-            hi = mid - 1
-    return lo
-
-
-@njit
-def height_at(xs, ys, n, x) -> float:
-    """Ground height under x."""
-    i = segment_at(xs, n, x)
-    t = (x - xs[i]) / (xs[i + 1] - xs[i])
-    return ys[i] + t * (ys[i + 1] - ys[i])
-
-
-@njit(inline="always")
-def highest_ground(xs, ys, n, lo_x, hi_x) -> float:
-    """The highest terrain point between lo_x and hi_x."""
-    i = segment_at(xs, n, lo_x)
+def highest_ground(xs, ys, n, first, hi_x) -> float:
+    """The highest terrain point from segment ``first`` to x = hi_x."""
+    i = first
     top = max(ys[i], ys[i + 1])
     while i + 1 < n - 1 and xs[i + 1] < hi_x:
         i += 1
@@ -183,60 +157,77 @@ def highest_ground(xs, ys, n, lo_x, hi_x) -> float:
 
 
 @njit(inline="always")
-def x_range(n_points, pos):
+def extent(n_points, pos):
+    """Leftmost x, rightmost x and lowest y of a robot's corners."""
     lo_x = pos[0, 0]
     hi_x = pos[0, 0]
+    lo_y = pos[0, 1]
     for p in range(1, n_points):
         lo_x = min(lo_x, pos[p, 0])
         hi_x = max(hi_x, pos[p, 0])
-    return lo_x, hi_x
+        lo_y = min(lo_y, pos[p, 1])
+    return lo_x, hi_x, lo_y
 
 
 @njit(inline="always")
-def ground_contact(n_points, pos, vel, contact, xs, ys, n, params):
+def segment_near(xs, n, x, guess) -> int:
+    """Index of the segment under x, walking from ``guess`` (a corner moves little per step)."""
+    i = min(max(guess, 0), n - 2)
+    while i > 0 and x < xs[i]:
+        i -= 1
+    while i < n - 2 and x >= xs[i + 1]:
+        i += 1
+    return i
+
+
+@njit(inline="always")
+def ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n, first, hi_x,
+                   params):
     """Push corners out of the ground onto its nearest segment; no bounce, Coulomb friction.
 
-    The nearest segment is searched among the two neighbours on each side of the segment under
-    the corner, so that steep walls and step risers push sideways, not up.
+    ``segment`` remembers each corner's segment from the previous substep; ``nxs``, ``nys`` are
+    the segments' unit normals. When a corner is further, horizontally, from both ends of its
+    segment than it is deep, no other segment can be nearer, so it goes straight out along the
+    normal (the usual case). Otherwise the two neighbours on each side are searched too, so
+    that steep walls and step risers push sideways, not up.
     """
     mu = params[P_FRICTION]
-    lo_x, hi_x = x_range(n_points, pos)
-    clear = highest_ground(xs, ys, n, lo_x, hi_x) + CONTACT_TOLERANCE
+    clear = highest_ground(xs, ys, n, first, hi_x) + CONTACT_TOLERANCE
     for p in range(n_points):
         x = pos[p, 0]
         y = pos[p, 1]
         if y >= clear:
             contact[p] = False
             continue
-        i = segment_at(xs, n, x)
+        i = segment_near(xs, n, x, segment[p])
+        segment[p] = i
         t = (x - xs[i]) / (xs[i + 1] - xs[i])
         gap = y - (ys[i] + t * (ys[i + 1] - ys[i]))
         contact[p] = gap < CONTACT_TOLERANCE
         if gap >= 0.0:
             continue
-        best = 1e300
-        bx = x
-        by = y
-        nx = 0.0
-        ny = 1.0
-        for j in range(max(0, i - 2), min(n - 1, i + 3)):
-            sx = xs[j + 1] - xs[j]
-            sy = ys[j + 1] - ys[j]
-            seg2 = sx * sx + sy * sy
-            u = ((x - xs[j]) * sx + (y - ys[j]) * sy) / seg2
-            u = min(1.0, max(0.0, u))
-            cx = xs[j] + u * sx
-            cy = ys[j] + u * sy
-            d2 = (x - cx) * (x - cx) + (y - cy) * (y - cy)
-            if d2 < best:
-                best = d2
-                bx = cx
-                by = cy
-                inv = 1.0 / math.sqrt(seg2)
-                nx = -sy * inv
-                ny = sx * inv
-        pos[p, 0] = bx
-        pos[p, 1] = by
+        nx = nxs[i]
+        ny = nys[i]
+        if min(x - xs[i], xs[i + 1] - x) >= -gap:
+            depth = (x - xs[i]) * nx + (y - ys[i]) * ny
+            pos[p, 0] = x - depth * nx
+            pos[p, 1] = y - depth * ny
+        else:
+            best = 1e300
+            for j in range(max(0, i - 2), min(n - 1, i + 3)):
+                sx = xs[j + 1] - xs[j]
+                sy = ys[j + 1] - ys[j]
+                u = ((x - xs[j]) * sx + (y - ys[j]) * sy) / (sx * sx + sy * sy)
+                u = min(1.0, max(0.0, u))
+                cx = xs[j] + u * sx
+                cy = ys[j] + u * sy
+                d2 = (x - cx) * (x - cx) + (y - cy) * (y - cy)
+                if d2 < best:
+                    best = d2
+                    pos[p, 0] = cx
+                    pos[p, 1] = cy
+                    nx = nxs[j]
+                    ny = nys[j]
         vn = vel[p, 0] * nx + vel[p, 1] * ny
         if vn < 0.0:
             vel[p, 0] -= vn * nx
@@ -252,19 +243,19 @@ def ground_contact(n_points, pos, vel, contact, xs, ys, n, params):
 
 
 @njit(inline="always")
-def peak_contact(n_points, n_boundary, boundary, pos, vel, xs, ys, n, params):
+def peak_contact(n_boundary, boundary, pos, vel, xs, ys, n, first, hi_x, lo_y, params):
     """Keep terrain vertices from poking deeper than ``max_peak_depth`` into an outer side.
 
     Corners alone would let a sharp hilltop pass between two corners 3 m apart.
     """
     limit = params[P_PEAK_DEPTH]
-    lo_x, hi_x = x_range(n_points, pos)
-    first = segment_at(xs, n, lo_x) + 1
-    for i in range(first, n - 1):
+    for i in range(first + 1, n - 1):
         tx = xs[i]
         if tx > hi_x:
             break
         ty = ys[i]
+        if ty <= lo_y:
+            continue  # below every corner: it cannot be inside the robot
         for q in range(n_boundary):
             a = boundary[q, 0]
             b = boundary[q, 1]
@@ -296,9 +287,16 @@ def peak_contact(n_points, n_boundary, boundary, pos, vel, xs, ys, n, params):
 
 @njit(inline="always")
 def substep(n_points, n_springs, n_boundary, ends, strength, rest, min_length, mass, inv_mass,
-            boundary, pos, vel, force, work, contact, xs, ys, n_terrain, params):
-    """Advance one robot by one physics substep. ``work`` is a tuple of 6 (S,) arrays."""
+            boundary, pos, vel, force, work, contact, segment, xs, ys, nxs, nys, n_terrain,
+            params):
+    """Advance one robot by one physics substep. ``work`` is a tuple of 6 (S,) scratch arrays;
+    ``segment`` (P + 1,) remembers the terrain segment under each corner and, last, under the
+    robot's leftmost corner."""
     integrate(n_points, n_springs, ends, strength, rest, min_length, mass, inv_mass, pos, vel,
               force, work[0], work[1], work[2], work[3], work[4], work[5], params)
-    peak_contact(n_points, n_boundary, boundary, pos, vel, xs, ys, n_terrain, params)
-    ground_contact(n_points, pos, vel, contact, xs, ys, n_terrain, params)
+    lo_x, hi_x, lo_y = extent(n_points, pos)
+    first = segment_near(xs, n_terrain, lo_x, segment[n_points])
+    segment[n_points] = first
+    peak_contact(n_boundary, boundary, pos, vel, xs, ys, n_terrain, first, hi_x, lo_y, params)
+    ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n_terrain, first,
+                   hi_x, params)

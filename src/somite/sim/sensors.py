@@ -27,7 +27,7 @@ from .config import (
     P_VELOCITY_MAX,
     P_VELOCITY_WINDOW,
 )
-from .physics import segment_at
+from .physics import segment_near
 from .system import R_AREA, R_LIDAR0, R_TOUCH, R_VX, R_VY
 
 AREA_LOW, AREA_HIGH = 0.5, 1.5
@@ -111,10 +111,12 @@ def voxel_state(n_voxels, corners, pos, vel, with_angle, out):
 
 
 @njit
-def raycast(x0, y0, dx, dy, reach, xs, ys, n) -> float:
-    """Distance along the unit ray (dx, dy) from (x0, y0) to the terrain, or ``reach``."""
+def raycast(x0, y0, dx, dy, reach, xs, ys, n, guess) -> float:
+    """Distance along the unit ray (dx, dy) from (x0, y0) to the terrain, or ``reach``.
+
+    ``guess`` is a segment index near the ray's start (the search walks from it)."""
     x1 = x0 + dx * reach
-    first = segment_at(xs, n, min(x0, x1))
+    first = segment_near(xs, n, min(x0, x1), guess)
     last_x = max(x0, x1)
     best = reach
     for j in range(first, n - 1):
@@ -167,8 +169,9 @@ def _window_mean(hist, v, step, window, column) -> float:
 
 @njit
 def sense(step, seed, n_readings, codes, reading_voxel, voxels, touch_hist, vel_hist, rays,
-          xs, ys, n_terrain, params, readings):
-    """Fill ``readings`` (R,) for control step ``step`` (histories already updated)."""
+          xs, ys, n_terrain, guess, params, readings):
+    """Fill ``readings`` (R,) for control step ``step`` (histories already updated);
+    ``guess`` is a terrain segment near the robot."""
     wt = int(params[P_TOUCH_WINDOW])
     wv = int(params[P_VELOCITY_WINDOW])
     vmax = params[P_VELOCITY_MAX]
@@ -196,7 +199,8 @@ def sense(step, seed, n_readings, codes, reading_voxel, voxels, touch_hist, vel_
                 c = math.cos(voxels[v, 5])
                 s = math.sin(voxels[v, 5])
                 dx, dy = dx * c - dy * s, dx * s + dy * c
-            value = raycast(voxels[v, 0], voxels[v, 1], dx, dy, reach, xs, ys, n_terrain) / reach
+            hit = raycast(voxels[v, 0], voxels[v, 1], dx, dy, reach, xs, ys, n_terrain, guess)
+            value = hit / reach
         readings[r] = value
     if sigma > 0.0:
         for pair in range((n_readings + 1) // 2):

@@ -53,6 +53,8 @@ class System(NamedTuple):
     terrain_n: np.ndarray  # (T,) int32 vertices of each terrain
     terrain_x: np.ndarray  # (T, K) [m] strictly increasing
     terrain_y: np.ndarray  # (T, K) [m]
+    terrain_nx: np.ndarray  # (T, K) unit normal of segment [k, k+1], pointing up out of the
+    terrain_ny: np.ndarray  # (T, K) ground (left of the segment's direction)
 
 
 class Geometry(NamedTuple):
@@ -182,4 +184,13 @@ def compile_system(
         terrain_n=np.array([len(t.xs) for t in terrain_list], dtype=np.int32),
         terrain_x=_pad([t.xs for t in terrain_list], (), np.float64),
         terrain_y=_pad([t.ys for t in terrain_list], (), np.float64),
+        terrain_nx=_pad([_normals(t)[0] for t in terrain_list], (), np.float64),
+        terrain_ny=_pad([_normals(t)[1] for t in terrain_list], (), np.float64),
     )
+
+
+def _normals(terrain: Terrain) -> tuple[np.ndarray, np.ndarray]:
+    dx = np.diff(terrain.xs)
+    dy = np.diff(terrain.ys)
+    length = np.hypot(dx, dy)
+    return -dy / length, dx / length

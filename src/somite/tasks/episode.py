@@ -129,6 +129,8 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
     xs = system.terrain_x[t]
     ys = system.terrain_y[t]
     n_terrain = system.terrain_n[t]
+    nxs = system.terrain_nx[t]
+    nys = system.terrain_ny[t]
     mass = system.mass[b]
     rest0 = system.spring_rest[b]
     corners = system.voxel_corners[b]
@@ -142,6 +144,7 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
     work = (np.zeros(n_springs), np.zeros(n_springs), np.zeros(n_springs),
             np.zeros(n_springs), np.zeros(n_springs), np.zeros(n_springs))
     contact = np.zeros(n_points, dtype=np.bool_)
+    segment = np.zeros(n_points + 1, dtype=np.int64)
     rest = rest0[:n_springs].copy()
     inv_mass = 1.0 / mass[:n_points]
     min_length = rest0[:n_springs] * params[P_MIN_LENGTH]
@@ -172,7 +175,8 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
         set_rest_lengths(n_springs, system.spring_owners[b], rest0, actuation, params, rest)
         for _ in range(substeps):
             substep(n_points, n_springs, n_boundary, ends, strength, rest, min_length, mass,
-                    inv_mass, boundary, pos, vel, force, work, contact, xs, ys, n_terrain, params)
+                    inv_mass, boundary, pos, vel, force, work, contact, segment, xs, ys, nxs,
+                    nys, n_terrain, params)
         enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel)
         cx, cy = _centre_of_mass(n_points, mass, pos)
         for p in range(n_points):
@@ -187,7 +191,8 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
             smallest = min(smallest, voxels[v, 4])
         update_histories(k - 1, n_voxels, corners, contact, voxels, touch_hist, vel_hist, params)
         sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
-              touch_hist, vel_hist, rays, xs, ys, n_terrain, params, readings)
+              touch_hist, vel_hist, rays, xs, ys, n_terrain, segment[n_points], params,
+              readings)
         _control(b, k, ctrl, n_voxels, system.voxel_x[b], readings, h_prev, h_next, actuation,
                  params)
         if recording:

@@ -1,0 +1,98 @@
+"""Where the time of one generation goes: the kernel versus somite's Python around it.
+
+One generation of the paper's setting (96 offspring, worm, hilly-1-10-rnd, 30 s episodes),
+split into its steps, each timed with the functions `somite evolve` uses. Prints JSON.
+
+Usage: python benchmarks/generation.py [--generations 5] [--population 96] [--shape worm]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import tempfile
+import time
+
+import numpy as np
+
+from somite.brain.compile import compile_genome
+from somite.evolution.config import resolve
+from somite.evolution.ea import _training_terrain, statistics, tournament, truncate
+from somite.evolution.operators import mutate
+from somite.experiments.runner import RunDirectory, RunState, evolve
+from somite.sim.system import compile_system
+from somite.tasks.locomotion import compile_controllers, outcomes, run
+
+
+def main() -> dict:
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--generations", type=int, default=5)
+    parser.add_argument("--population", type=int, default=96)
+    parser.add_argument("--shape", default="worm")
+    args = parser.parse_args()
+    config = resolve({"shape": args.shape, "population": args.population, "generations": 30})
+    with tempfile.TemporaryDirectory() as folder:
+        # A population that has evolved a little, so genomes are not all minimal.
+        state = evolve(config, f"{folder}/warm")
+        run_dir = RunDirectory(f"{folder}/warm")
+        body = state.population.genomes[0].body
+        operators = config.operators()
+        rng = state.rng
+        sim = config.sim()
+        times = {k: [] for k in ("select_and_mutate", "terrains", "compile_genomes",
+                                 "compile_batch", "kernel", "outcomes", "merge_and_truncate",
+                                 "log_and_bests")}
+        population = state.population
+        for _ in range(args.generations):
+            mark = time.perf_counter()
+
+            def lap(name):
+                nonlocal mark
+                now = time.perf_counter()
+                times[name].append(now - mark)
+                mark = now
+
+            children = []
+            for _ in range(config.population):
+                parent = population.genomes[tournament(population.fitness, 5, rng)]
+                children.append(mutate(parent, rng, operators)[0])
+            lap("select_and_mutate")
+            terrains = [_training_terrain(int(s)) for s in rng.integers(0, 10000, len(children))]
+            seeds = rng.integers(0, 2**32, len(children))
+            lap("terrains")
+            arrays = [compile_genome(g) for g in children]
+            lap("compile_genomes")
+            system = compile_system([body] * len(children), terrains)
+            controllers = compile_controllers(arrays, [body.shape.n_voxels] * len(children))
+            lap("compile_batch")
+            trace = run(system, controllers, sim, seeds)
+            lap("kernel")
+            fitness = np.array([o.velocity for o in outcomes(trace, sim)])
+            lap("outcomes")
+            merged = np.concatenate([population.fitness, fitness])
+            kept = truncate(merged, config.population, rng)
+            genomes = population.genomes + children
+            origins = population.origins + ["mutate"] * len(children)
+            population = type(population)([genomes[i] for i in kept], merged[kept],
+                                          [origins[i] for i in kept])
+            lap("merge_and_truncate")
+            stats = statistics(population, fitness)
+            run_dir.append(RunState(0, 0, 0.0, population, rng), stats)
+            lap("log_and_bests")
+    median = {k: float(np.median(v)) for k, v in times.items()}
+    total = sum(median.values())
+    python = total - median["kernel"]
+    return {
+        "benchmark": "one generation, paper setting",
+        "shape": args.shape,
+        "population": args.population,
+        "median_size": float(np.median([g.size for g in population.genomes])),
+        "seconds": {k: round(v, 4) for k, v in median.items()},
+        "generation_seconds": round(total, 4),
+        "python_overhead_seconds": round(python, 4),
+        "python_overhead_fraction": round(python / total, 4),
+    }
+
+
+if __name__ == "__main__":
+    print(json.dumps(main(), indent=2))

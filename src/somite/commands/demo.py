@@ -1,0 +1,40 @@
+"""``somite demo``: a short evolution, then a video of its best robot and a plot of the run."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..evolution.config import resolve
+from ..experiments.runner import RunDirectory, evolve
+from .evolve import progress_bar, summarise
+
+HELP = "Evolve a worm for 30 generations (~1 min), render its best gait and plot the run."
+
+DEMO = {"shape": "worm", "population": 48, "generations": 30, "duration": 20.0, "seed": 0}
+"""Small enough for a laptop in about a minute; big enough to show clear progress."""
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", default="demo", help="output folder")
+    parser.add_argument("--generations", type=int, default=DEMO["generations"])
+    parser.add_argument("--quiet", action="store_true")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..viz.plots import plot_runs
+    from ..viz.video import render_episode
+
+    out = Path(args.out)
+    run_dir = out / "run"
+    config = resolve({**DEMO, "generations": args.generations})
+    with progress_bar(config.generations, args.quiet) as report:
+        state = evolve(config, run_dir, force=True, progress=report)
+    summarise(state, RunDirectory(run_dir), args.quiet)
+    best = state.population.genomes[state.population.best()]
+    video = render_episode(best, out / "best.mp4", terrain_name="hilly-1-10-0",
+                           duration=config.duration)
+    plot = plot_runs([run_dir], out / "run.png", group_by="shape")
+    print(f"video of the best robot: {video}")
+    print(f"plot of the run:         {plot}")
+    return 0

@@ -7,7 +7,7 @@ import pytest
 
 from somite.brain.controllers import Sine, Table, Zero
 from somite.sim.body import Body
-from somite.sim.config import CONTROL_HZ, pack_params, P_DT
+from somite.sim.config import CONTROL_HZ, P_DT, pack_params
 from somite.sim.terrain import hilly, parse_terrain
 from somite.tasks.locomotion import simulate
 

@@ -8,8 +8,8 @@ edge, the bias summed once per edge, an isolated node giving act(0). Hidden node
 
 from __future__ import annotations
 
-from .._math import sigmoid, tanh
 from .._jit import njit
+from .._math import sigmoid, tanh
 
 SENSOR, HIDDEN, ACTUATOR = 0, 1, 2
 

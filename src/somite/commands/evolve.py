@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
 
 from ..errors import bad
 from ..evolution.config import EvolutionConfig, load_toml, resolve
@@ -31,7 +30,8 @@ def add_evolution_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--terrain", help="hilly-1-10-rnd (a new terrain per evaluation) or a name")
     parser.add_argument("--duration", type=finite_float("duration"), help="episode length [s]")
     parser.add_argument("--omega", type=finite_float("omega"), help="modularity bias (1 = none)")
-    parser.add_argument("--modules", help="partition for omega: paper, worm-halves, biped-legs, grid")
+    parser.add_argument("--modules",
+                        help="partition for omega: paper, worm-halves, biped-legs or a grid")
     parser.add_argument("--weights-only", action="store_true", default=None,
                         help="the ablation: only weight mutation (p_mutate_edge 1, others 0)")
     parser.add_argument("--checkpoint-every", type=int)
@@ -90,8 +90,13 @@ class progress_bar:
     def __enter__(self):
         if self.quiet:
             return None
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn
-        from rich.progress import TimeRemainingColumn
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeRemainingColumn,
+        )
 
         self.bar = Progress(
             TextColumn("generation"),

@@ -14,7 +14,8 @@ from pathlib import Path
 
 from ..errors import bad
 from ..sim.config import PRESETS as SIM_PRESETS
-from ..sim.config import SimConfig, preset as sim_preset
+from ..sim.config import SimConfig
+from ..sim.config import preset as sim_preset
 from .operators import NODE_PLACEMENTS, OperatorConfig
 
 SEEDED_MUTANTS = ("population-1", "population")

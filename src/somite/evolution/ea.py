@@ -22,8 +22,8 @@ from ..brain.compile import compile_genome
 from ..brain.genome import Genome
 from ..modules.partition import Partition
 from ..sim.body import Body
-from ..sim.terrain import Terrain, hilly, parse_terrain
 from ..sim.system import compile_system
+from ..sim.terrain import Terrain, hilly, parse_terrain
 from ..tasks.locomotion import compile_controllers, outcomes, run
 from .config import EvolutionConfig
 from .operators import initial_genome, mutate

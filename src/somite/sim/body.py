@@ -10,8 +10,8 @@ by their position in that list, so the order is part of the file format.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Iterable
 
 from ..errors import bad
 
@@ -53,7 +53,7 @@ class Shape:
             raise bad("shape", self.grid_string(), "voxels must be 4-connected")
 
     @classmethod
-    def from_cells(cls, cells: Iterable[tuple[int, int]]) -> "Shape":
+    def from_cells(cls, cells: Iterable[tuple[int, int]]) -> Shape:
         """Build a shape from any cells, translated so that the lowest x and y are 0."""
         cells = {(int(x), int(y)) for x, y in cells}
         if not cells:
@@ -67,7 +67,7 @@ class Shape:
         return cls(width, height, ordered)
 
     @classmethod
-    def parse(cls, text: str) -> "Shape":
+    def parse(cls, text: str) -> Shape:
         """Parse a preset name (``biped``, ``worm``), ``WxH``, or rows of 1/0 from the top."""
         spec = str(text).strip()
         spec = PRESET_SHAPES.get(spec, spec)
@@ -183,7 +183,7 @@ class Body:
                 raise bad("sensors", kinds, f"voxel {voxel} lists a sensor twice")
 
     @classmethod
-    def build(cls, shape: Shape | str, sensors: str | dict | None = "paper") -> "Body":
+    def build(cls, shape: Shape | str, sensors: str | dict | None = "paper") -> Body:
         """A body from a shape (or shape string) and a preset name or a per-voxel mapping.
 
         ``sensors`` may be a preset (``paper``, ``none``, ``area``, ``all``) or a dict from
@@ -203,7 +203,7 @@ class Body:
         ordered = tuple(
             tuple(k for k in SENSOR_KINDS if k in per_voxel.get(v, ())) for v in shape.voxels
         )
-        for cell, kinds in per_voxel.items():
+        for kinds in per_voxel.values():
             for kind in kinds:
                 if kind not in SENSOR_KINDS:
                     raise bad("sensor", kind, f"unknown sensor kind; use one of {SENSOR_KINDS}")
@@ -232,7 +232,7 @@ class Body:
         }
 
     @classmethod
-    def from_dict(cls, data: dict) -> "Body":
+    def from_dict(cls, data: dict) -> Body:
         if not isinstance(data, dict) or "shape" not in data:
             raise bad("body", data, "expected an object with 'shape' and 'sensors'")
         shape = Shape.parse(data["shape"])

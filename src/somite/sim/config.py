@@ -68,7 +68,10 @@ class SimConfig:
         for name in ("spring_hz", "lidar_range", "velocity_max", "gravity"):
             if not getattr(self, name) > 0:
                 raise bad(name, getattr(self, name), "must be positive")
-        for name in ("start_gap", "damping_ratio", "drag", "friction", "noise_sigma", "max_peak_depth"):
+        non_negative = (
+            "start_gap", "damping_ratio", "drag", "friction", "noise_sigma", "max_peak_depth"
+        )
+        for name in non_negative:
             if getattr(self, name) < 0:
                 raise bad(name, getattr(self, name), "must be zero or positive")
         if not 0 <= self.area_delta < 1:
@@ -96,7 +99,7 @@ class SimConfig:
         step = int(round(self.transient * CONTROL_HZ))
         return step if step < self.n_steps else 0
 
-    def with_options(self, **options) -> "SimConfig":
+    def with_options(self, **options) -> SimConfig:
         known = {f.name for f in fields(self)}
         for name in options:
             if name not in known:

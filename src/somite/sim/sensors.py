@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
-from .._math import tanh
 from .._jit import njit
+from .._math import tanh
 from .config import (
     P_LIDAR0,
     P_LIDAR_FRAME,

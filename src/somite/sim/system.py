@@ -14,11 +14,12 @@ mean rest length, it is stored once with both owners.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple, Sequence
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
-from .body import Body, SENSOR_WIDTH
+from .body import SENSOR_WIDTH, Body
 from .config import CORNER_MASS, VOXEL_SIDE
 from .terrain import Terrain
 

@@ -18,10 +18,17 @@ from numba import prange
 from .._jit import njit
 from ..brain.kernels import graph_step
 from ..brain.openloop import sine_actuation, table_actuation
-from ..sim.config import P_HIDDEN_SIGMOID, P_MIN_LENGTH, P_SUBSTEPS, P_TOUCH_WINDOW, P_VELOCITY_WINDOW
-from ..sim.config import CONTROL_HZ
+from ..sim.config import (
+    CONTROL_HZ,
+    P_HIDDEN_SIGMOID,
+    P_LIDAR_FRAME,
+    P_MIN_LENGTH,
+    P_SUBSTEPS,
+    P_TOUCH_WINDOW,
+    P_VELOCITY_FRAME,
+    P_VELOCITY_WINDOW,
+)
 from ..sim.physics import enforce_min_lengths, set_rest_lengths, substep
-from ..sim.config import P_LIDAR_FRAME, P_VELOCITY_FRAME
 from ..sim.sensors import lidar_rays, sense, update_histories, voxel_state
 
 ZERO, SINE, TABLE, GRAPH = 0, 1, 2, 3

@@ -7,8 +7,8 @@ Fitness is the mean x-velocity of the centre of mass over [transient, duration]
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
 

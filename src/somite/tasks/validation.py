@@ -6,7 +6,7 @@ terrains use seeds from 10000 on, so they are never training terrains.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

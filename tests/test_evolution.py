@@ -177,3 +177,19 @@ def test_a_short_run_improves(tmp_path):
     first, last = float(table[0]["best_velocity"]), float(table[-1]["best_velocity"])
     assert last > first + 0.2
     assert float(table[-1]["median_size"]) >= float(table[0]["median_size"])
+
+
+def test_evaluate_reports_every_validation_terrain(tmp_path, capsys):
+    evolve(resolve(SMALL), tmp_path / "run")
+    code = main(["evaluate", str(tmp_path / "run"), "--validation", "3", "--duration", "3",
+                 "--json"])
+    assert code == 0
+    report = json.loads(capsys.readouterr().out)
+    assert list(report["terrains"]) == [f"hilly-1-10-1000{i}" for i in range(3)]
+    values = list(report["terrains"].values())
+    assert report["mean_velocity"] == pytest.approx(sum(values) / 3)
+    code = main(["evaluate", str(tmp_path / "run"), "--terrain", "flat", "--terrain",
+                 "uphill-10", "--duration", "3", "--json"])
+    assert list(json.loads(capsys.readouterr().out)["terrains"]) == ["flat", "uphill-10"]
+    assert main(["evaluate", str(tmp_path / "missing")]) == 2
+    assert "no such file or run directory" in capsys.readouterr().err

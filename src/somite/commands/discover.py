@@ -1,0 +1,78 @@
+"""``somite discover``: partition a robot around its most compact module (paper eq. 5)."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+from pathlib import Path
+
+from ..brain.genome import Genome
+from ..errors import bad
+from ..modules.discovery import partition_around, partition_to_dict, rank_candidates, score
+from ..modules.library import write_atomic
+
+HELP = "Find the most compact module of a genome (eq. 5) and partition its body around it."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("genome", help="genome file")
+    parser.add_argument("--out", required=True, help="output folder")
+    parser.add_argument("--min", dest="b_min", type=int, default=2, help="b_min (default 2)")
+    parser.add_argument("--max", dest="b_max", type=int, default=5, help="b_max (default 5)")
+
+
+def run(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise bad("out", args.out, "exists and is not a folder")
+    genome = Genome.load(args.genome)
+    ranked = rank_candidates(genome, args.b_min, args.b_max)
+    best = ranked[0]
+    partition = partition_around(genome.body.shape, best.voxels)
+    data = partition_to_dict(
+        partition,
+        genome=str(args.genome),
+        b_min=args.b_min,
+        b_max=args.b_max,
+        n_candidates=len(ranked),
+        best={"label": "A", **best.to_dict()},
+        scores={
+            label: _module_score(genome, partition, label) for label in partition.modules
+        },
+    )
+    out.mkdir(parents=True, exist_ok=True)
+    write_atomic(out / "partition.json", json.dumps(data, indent=1, allow_nan=False) + "\n")
+    write_atomic(out / "candidates.csv", _csv(ranked))
+    print(f"most compact module (c = {_fmt(best.compactness)}): {list(best.voxels)}")
+    print(f"partition {partition.grid_string()} ({len(partition.modules)} modules)")
+    print(f"-> {out / 'partition.json'}, {out / 'candidates.csv'} ({len(ranked)} candidates)")
+    return 0
+
+
+def _module_score(genome: Genome, partition, label: str) -> dict:
+    """inside, crossing and compactness of one module of the partition."""
+    shape = genome.body.shape
+    indices = tuple(shape.index(*v) for v in partition.voxels_of(label))
+    [candidate] = score(genome, (indices,))
+    return {k: v for k, v in candidate.to_dict().items() if k != "voxels"}
+
+
+def _csv(ranked) -> str:
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(("rank", "size", "voxels", "inside", "crossing", "compactness"))
+    for rank, candidate in enumerate(ranked, start=1):
+        voxels = " ".join(f"{x},{y}" for x, y in candidate.voxels)
+        writer.writerow((
+            rank, candidate.size, voxels, repr(candidate.inside), repr(candidate.crossing),
+            _fmt(candidate.compactness, full=True),
+        ))
+    return buffer.getvalue()
+
+
+def _fmt(value: float, full: bool = False) -> str:
+    if value != value:  # NaN: the set touches no edge
+        return "nan"
+    return repr(value) if full else f"{value:.3f}"

@@ -1,0 +1,89 @@
+"""``somite module``: export a module of a genome to a library file, or list a library."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from ..brain.genome import Genome
+from ..errors import bad
+from ..modules.discovery import partition_from_spec
+from ..modules.library import list_library, module_text, provenance_of, write_atomic
+from ..modules.module import cut
+from .common import finite_float, print_json
+
+HELP = "Module library: 'module export' writes one module of a genome, 'module list' lists."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    actions = parser.add_subparsers(dest="action", required=True, metavar="ACTION")
+    export = actions.add_parser(
+        "export", help="write one module of a genome as a module file",
+        description="Write one module of a genome (its voxels, sensors, nodes and internal "
+        "edges) as a somite-module file.",
+    )
+    export.add_argument("genome", help="donor genome file")
+    export.add_argument(
+        "--partition", default="paper",
+        help="a preset (paper, worm-halves, biped-legs), a grid of labels or a partition.json",
+    )
+    export.add_argument("--module", required=True, help="label of the module to export")
+    export.add_argument("--out", required=True, help="module file to write (NAME.json)")
+    export.add_argument(
+        "--velocity", type=finite_float("velocity"), default=None,
+        help="the donor's v_x [m/s], recorded in the provenance",
+    )
+    listing = actions.add_parser(
+        "list", help="list the modules of a library folder",
+        description="List the modules of a library folder (every *.json in it).",
+    )
+    listing.add_argument("folder", nargs="+", help="library folder(s) or module files")
+    listing.add_argument("--json", action="store_true", help="print JSON")
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.action == "export":
+        return _export(args)
+    return _list(args)
+
+
+def _export(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    if out.is_dir():
+        raise bad("out", args.out, "is a folder; give the module file to write")
+    if not out.name.endswith(".json") or out.name == ".json":
+        raise bad("out", args.out, "a module file is named NAME.json (NAME is its library name)")
+    donor = Genome.load(args.genome)
+    partition = partition_from_spec(args.partition, donor.body.shape)
+    module = cut(donor, partition).module(args.module)
+    provenance = provenance_of(
+        module, donor, partition.grid_string(), str(args.genome), args.velocity
+    )
+    text = module_text(module, provenance)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(out, text)
+    print(
+        f"module {module.label!r}: {module.size} voxels, {len(module.nodes)} nodes, "
+        f"{len(module.edges)} edges -> {out}"
+    )
+    return 0
+
+
+def _list(args: argparse.Namespace) -> int:
+    summaries = [item.summary() for item in list_library(args.folder)]
+    if args.json:
+        print_json(summaries)
+        return 0
+    if not summaries:
+        print("no modules")
+        return 0
+    print(f"{'name':<20} {'size':>4} {'nodes':>5} {'edges':>5} {'v_x':>7}  sensors  (donor)")
+    for s in summaries:
+        sensors = " ".join(f"{kind}:{n}" for kind, n in s["sensors"].items()) or "-"
+        v_x = "-" if s["v_x"] is None else f"{s['v_x']:.3f}"
+        donor = f"{s['module']} of {s['donor']}" if s["donor"] else s["module"]
+        print(
+            f"{s['name']:<20} {s['size']:>4} {s['nodes']:>5} {s['edges']:>5} {v_x:>7}  "
+            f"{sensors}  ({donor})"
+        )
+    return 0

@@ -21,13 +21,13 @@ import functools
 import json
 import math
 import os
-import uuid
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
+from .._io import write_atomic
 from ..errors import bad
 from ..sim.body import SENSOR_WIDTH, Body
 
@@ -189,7 +189,7 @@ class Genome:
         }
 
     @classmethod
-    def from_dict(cls, data: dict) -> "Genome":
+    def from_dict(cls, data: dict) -> Genome:
         """Inverse of :meth:`to_dict`; also reads the compact form's list rows."""
         if not isinstance(data, dict):
             raise bad("genome", type(data).__name__, "expected a JSON object")
@@ -213,29 +213,17 @@ class Genome:
         return json.dumps(data, allow_nan=False, separators=(",", ":"))
 
     @classmethod
-    def from_compact(cls, text: str) -> "Genome":
+    def from_compact(cls, text: str) -> Genome:
         """Read the output of :meth:`to_compact` (or any genome JSON text)."""
         return cls.from_dict(_parse_json(text, "genome"))
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write the genome as JSON; atomic (temp file in the same folder, then rename)."""
-        path = Path(path)
         text = json.dumps(self.to_dict(), allow_nan=False, indent=1)
-        # Not tempfile.mkstemp: its files are private (0600); os.open with 0666 honours the umask.
-        tmp = path.parent / f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
-        handle = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-        try:
-            with os.fdopen(handle, "w", encoding="utf-8") as out:
-                out.write(text + "\n")
-            os.replace(tmp, path)
-        except BaseException:
-            # Never leave a half-written temp file beside the real ones.
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return path
+        return write_atomic(path, text + "\n")
 
     @classmethod
-    def load(cls, path: str | os.PathLike) -> "Genome":
+    def load(cls, path: str | os.PathLike) -> Genome:
         """Read a genome file written by :meth:`save`."""
         try:
             text = Path(path).read_text(encoding="utf-8")

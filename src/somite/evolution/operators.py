@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import copy
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, fields
-from typing import Callable
 
 import numpy as np
 
@@ -96,7 +96,7 @@ class OperatorConfig:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
     @classmethod
-    def from_dict(cls, data: dict) -> "OperatorConfig":
+    def from_dict(cls, data: dict) -> OperatorConfig:
         """Inverse of :meth:`to_dict`; missing options take their defaults."""
         known = {f.name for f in fields(cls)}
         for key in data:
@@ -115,8 +115,9 @@ def initial_genome(body: Body, rng: np.random.Generator) -> Genome:
     """The minimal controller of ``body`` (section 4.3).
 
     Every sensor and actuator node, no hidden node, and an edge from each sensor to the actuator
-    of its own voxel with w, b ~ U(-1, 1). Ids follow the authors' order: voxel by voxel (bottom row first), each voxel's sensor slots
-    then its actuator. Weight and bias are drawn in that order, edge by edge.
+    of its own voxel with w, b ~ U(-1, 1). Ids follow the authors' order: voxel by voxel (bottom
+    row first), each voxel's sensor slots then its actuator. Weight and bias are drawn in that
+    order, edge by edge.
     """
     table = body_table(body)
     params = rng.uniform(-1.0, 1.0, size=(sum(table.n_slots), 2))
@@ -262,7 +263,7 @@ def mutate(
     config = config or DEFAULT_CONFIG
     weights = config.probabilities
     spin = rng.random() * sum(weights)
-    for name, weight in zip(OPERATOR_NAMES, weights):
+    for name, weight in zip(OPERATOR_NAMES, weights):  # noqa: B007 - name is used after
         # A zero weight never wins: spin < 0 is false.
         if spin < weight:
             break

@@ -16,10 +16,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .._io import write_atomic
 from ..brain.genome import Genome
 from ..sim.config import SimConfig
 from ..tasks.validation import evaluate, validation_terrains
-from .runner import RunDirectory, write_atomic
+from .runner import RunDirectory
 
 TRANSFER_COLUMNS = ("generation", "training_velocity", "validation_velocity", "rho")
 

@@ -20,7 +20,6 @@ import csv
 import io
 import json
 import math
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -28,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._io import write_atomic
 from ..brain.genome import Genome
 from ..errors import bad
 from ..evolution.config import EvolutionConfig, resolve
@@ -59,20 +59,6 @@ LOG_COLUMNS = (
 RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json")
 CHECKPOINT_FORMAT = "somite-checkpoint"
 CHECKPOINT_VERSION = 1
-
-
-def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename: never half-written."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "w", encoding="utf-8") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
 
 
 @dataclass

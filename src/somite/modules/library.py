@@ -30,11 +30,11 @@ import json
 import math
 import os
 import re
-import uuid
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
 
+from .._io import write_atomic
 from ..brain.genome import Edge, Genome, Node
 from ..errors import SomiteError, bad
 from ..sim.body import SENSOR_KINDS, Body, Shape, is_connected
@@ -290,23 +290,6 @@ def list_library(
             raise bad("module", item.name, f"two modules have this name: {first}, {path}")
         modules[item.name] = item
     return tuple(modules[name] for name in sorted(modules))
-
-
-def write_atomic(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
-    path = Path(path)
-    # Not tempfile.mkstemp: its files are private (0600); os.open with 0666 honours the umask.
-    tmp = path.parent / f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
-    handle = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8") as out:
-            out.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        # Never leave a half-written temp file beside the real ones.
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
 
 
 # -- assembly -------------------------------------------------------------------------------------

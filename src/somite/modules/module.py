@@ -36,8 +36,8 @@ mean v_x over the same fixed validation terrains (decisions.md).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
-from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -116,7 +116,7 @@ class Module:
         """The module as the controller of a robot of its own, corner moved to (0, 0)."""
         return self._genome
 
-    def translated(self, dx: int, dy: int) -> "Module":
+    def translated(self, dx: int, dy: int) -> Module:
         """The same module moved by (dx, dy) voxels; node ids unchanged."""
         return Module(
             self.label,
@@ -126,7 +126,7 @@ class Module:
             self.edges,
         )
 
-    def relative(self) -> "Module":
+    def relative(self) -> Module:
         """The module moved so that its bounding-box corner is (0, 0)."""
         x0, y0 = self.origin
         return self.translated(-x0, -y0)
@@ -189,7 +189,7 @@ class CutRatio:
         """weight_cut / weight; NaN when the weight is 0."""
         return self.weight_cut / self.weight if self.weight > 0 else math.nan
 
-    def __add__(self, other: "CutRatio") -> "CutRatio":
+    def __add__(self, other: CutRatio) -> CutRatio:
         return CutRatio(
             self.n_edges + other.n_edges,
             self.n_cut + other.n_cut,

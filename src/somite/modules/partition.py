@@ -7,9 +7,9 @@ front half x >= 3; the biped's two legs (whole columns x = 0 and x = 3) and its 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Callable
 
 import numpy as np
 
@@ -65,7 +65,7 @@ class Partition:
                 raise bad("partition", label, "module is not 4-connected")
 
     @classmethod
-    def preset(cls, name: str, shape: Shape | str) -> "Partition":
+    def preset(cls, name: str, shape: Shape | str) -> Partition:
         """A named partition: ``worm-halves``, ``biped-legs``, or ``paper`` (the shape's own)."""
         shape = Shape.parse(shape) if isinstance(shape, str) else shape
         grid = shape.grid_string()
@@ -82,7 +82,7 @@ class Partition:
         return cls(shape, tuple(rule(x, y) for x, y in shape.voxels))
 
     @classmethod
-    def from_grid(cls, text: str, shape: Shape | str) -> "Partition":
+    def from_grid(cls, text: str, shape: Shape | str) -> Partition:
         """Rows of one-character labels from the top, '.' for empty cells: ``AAABBB/AAABBB``."""
         shape = Shape.parse(shape) if isinstance(shape, str) else shape
         rows = [row.strip() for row in str(text).strip().split("/")]
@@ -104,7 +104,7 @@ class Partition:
         return cls(shape, tuple(labels[v] for v in shape.voxels))
 
     @classmethod
-    def parse(cls, spec: str, shape: Shape | str) -> "Partition":
+    def parse(cls, spec: str, shape: Shape | str) -> Partition:
         """A preset name or a grid of labels (see :meth:`preset` and :meth:`from_grid`)."""
         if spec == "paper" or spec in PARTITION_PRESETS:
             return cls.preset(spec, shape)

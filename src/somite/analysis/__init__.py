@@ -1,0 +1,29 @@
+"""Statistics over run directories (significance tests, summaries); no plotting here."""
+
+from .stats import (
+    LOG_COLUMNS,
+    MannWhitney,
+    PairTest,
+    RunLog,
+    describe,
+    final_values,
+    group_runs,
+    load_run,
+    mann_whitney,
+    pairwise_mann_whitney,
+    run_statistics,
+)
+
+__all__ = [
+    "LOG_COLUMNS",
+    "MannWhitney",
+    "PairTest",
+    "RunLog",
+    "describe",
+    "final_values",
+    "group_runs",
+    "load_run",
+    "mann_whitney",
+    "pairwise_mann_whitney",
+    "run_statistics",
+]

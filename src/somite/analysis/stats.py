@@ -1,0 +1,277 @@
+"""Statistics over run directories: read logs, group runs, compare groups (no plotting).
+
+The comparisons are those of the paper's Figures 5, 9 and 11: the distribution of the best
+individual's velocity v_x at the last generation, one sample per run, compared pairwise with a
+two-sided Mann-Whitney U test (``scipy.stats.mannwhitneyu``; scipy picks the exact null
+distribution for small samples without ties). The paper's text reports one one-sided test; the
+figures show a p-value per pair of boxes, which is what :func:`pairwise_mann_whitney` gives.
+
+A run directory (written by ``somite evolve``) holds ``config.json`` (the resolved configuration)
+and ``log.csv`` (one row per generation, columns :data:`LOG_COLUMNS`).
+"""
+
+from __future__ import annotations
+
+import csv
+import itertools
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Iterable, Mapping, NamedTuple, Sequence
+
+import numpy as np
+
+from ..errors import bad
+
+LOG_COLUMNS = (
+    "generation",
+    "evaluations",
+    "elapsed_seconds",
+    "best_velocity",
+    "median_velocity",
+    "worst_velocity",
+    "best_nodes",
+    "best_edges",
+    "best_size",
+    "median_size",
+    "best_operator",
+    "nan_count",
+)
+"""The columns of ``log.csv``, in order."""
+
+NUMERIC_COLUMNS = tuple(c for c in LOG_COLUMNS if c != "best_operator")
+
+
+@dataclass(frozen=True)
+class RunLog:
+    """One run directory, read.
+
+    Attributes
+    ----------
+    path : Path
+        The run directory.
+    config : dict
+        ``config.json`` as parsed JSON.
+    log : dict of str to numpy.ndarray
+        Every numeric column of ``log.csv`` as a float array (G,), one entry per generation row;
+        an empty or unparsable cell is NaN.
+    """
+
+    path: Path
+    config: dict
+    log: dict[str, np.ndarray] = field(repr=False)
+
+    @property
+    def n_generations(self) -> int:
+        """Rows of the log."""
+        return len(self.log["generation"])
+
+    def final(self, column: str = "best_velocity") -> float:
+        """The value of ``column`` in the last logged generation."""
+        return float(self.log[column][-1])
+
+
+def load_run(path: str | Path) -> RunLog:
+    """Read ``config.json`` and ``log.csv`` of a run directory.
+
+    Raises
+    ------
+    SomiteError
+        When the directory, its config or its log is missing, or the log lacks a column or rows.
+    """
+    path = Path(path)
+    if not path.is_dir():
+        raise bad("run", str(path), "no such run directory")
+    log_path = path / "log.csv"
+    if not log_path.is_file():
+        raise bad("run", str(path), "has no log.csv (not a run directory, or nothing logged yet)")
+    config_path = path / "config.json"
+    if not config_path.is_file():
+        raise bad("run", str(path), "has no config.json")
+    try:
+        config = json.loads(config_path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise bad("config", str(config_path), f"cannot read it ({error})") from None
+    if not isinstance(config, dict):
+        raise bad("config", str(config_path), "expected a JSON object")
+    return RunLog(path, config, _read_log(log_path))
+
+
+def _read_log(path: Path) -> dict[str, np.ndarray]:
+    try:
+        with open(path, newline="", encoding="utf-8") as handle:
+            reader = csv.DictReader(handle)
+            missing = [c for c in NUMERIC_COLUMNS if c not in (reader.fieldnames or ())]
+            if missing:
+                raise bad("log", str(path), f"lacks the columns {missing}")
+            # A row cut short by a run still writing has None cells: stop before it.
+            rows = [row for row in reader if None not in row.values()]
+    except (OSError, UnicodeDecodeError, csv.Error) as error:
+        raise bad("log", str(path), f"cannot read it ({error})") from None
+    if not rows:
+        raise bad("log", str(path), "has no generation rows yet")
+    return {
+        c: np.array([_number(row[c]) for row in rows], dtype=np.float64) for c in NUMERIC_COLUMNS
+    }
+
+
+def _number(text: str | None) -> float:
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def group_label(config: Mapping, keys: Sequence[str]) -> str:
+    """``key=value`` for each grouping key, joined by ``, ``; raises if a key is missing."""
+    parts = []
+    for key in keys:
+        if key not in config:
+            known = ", ".join(sorted(config))
+            raise bad("group_by", key, f"not a key of config.json (keys: {known})")
+        parts.append(f"{key}={_show(config[key])}")
+    return ", ".join(parts)
+
+
+def _show(value) -> str:
+    return value if isinstance(value, str) else json.dumps(value)
+
+
+def group_runs(runs: Iterable[RunLog], group_by: str | Sequence[str]) -> dict[str, list[RunLog]]:
+    """Runs grouped by the value of one or more ``config.json`` keys (comma-separated string).
+
+    Groups come sorted by their values (numbers numerically, so ``omega=0.1`` precedes
+    ``omega=10``); inside a group runs keep their given order.
+    """
+    keys = _keys(group_by)
+    groups: dict[str, list[RunLog]] = {}
+    order: dict[str, tuple] = {}
+    for run in runs:
+        label = group_label(run.config, keys)
+        groups.setdefault(label, []).append(run)
+        order[label] = tuple(_sort_key(run.config[k]) for k in keys)
+    return {label: groups[label] for label in sorted(groups, key=order.__getitem__)}
+
+
+def _keys(group_by: str | Sequence[str]) -> list[str]:
+    keys = [k.strip() for k in group_by.split(",")] if isinstance(group_by, str) else list(group_by)
+    if not keys or not all(keys):
+        raise bad("group_by", group_by, "name one or more config.json keys, comma-separated")
+    return keys
+
+
+def _sort_key(value) -> tuple:
+    # Booleans and numbers before strings, and never compare a number with a string.
+    if isinstance(value, (bool, int, float)):
+        return (0, float(value), "")
+    return (1, 0.0, _show(value))
+
+
+def final_values(runs: Iterable[RunLog], column: str = "best_velocity") -> np.ndarray:
+    """The last generation's ``column`` of each run (NaN dropped), as an array (n_runs,)."""
+    values = np.array([run.final(column) for run in runs], dtype=np.float64)
+    return values[np.isfinite(values)]
+
+
+class MannWhitney(NamedTuple):
+    """A two-sided Mann-Whitney U test: U of the first sample, and the p-value."""
+
+    u: float
+    p: float
+
+
+def mann_whitney(a: Sequence[float], b: Sequence[float]) -> MannWhitney:
+    """Two-sided Mann-Whitney U test of samples ``a`` and ``b``.
+
+    U counts the pairs (a_i, b_j) with a_i > b_j, ties counting one half. NaN when a sample
+    is empty.
+    """
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    if len(a) == 0 or len(b) == 0:
+        return MannWhitney(math.nan, math.nan)
+    # Imported here: scipy.stats takes about a second to import, and every ``somite`` command
+    # imports this module through the CLI's command discovery.
+    from scipy.stats import mannwhitneyu
+
+    result = mannwhitneyu(a, b, alternative="two-sided")
+    return MannWhitney(float(result.statistic), float(result.pvalue))
+
+
+class PairTest(NamedTuple):
+    """The Mann-Whitney test of two groups, by label."""
+
+    a: str
+    b: str
+    n_a: int
+    n_b: int
+    u: float
+    p: float
+
+
+def pairwise_mann_whitney(samples: Mapping[str, Sequence[float]]) -> list[PairTest]:
+    """A two-sided Mann-Whitney U test for every pair of groups, in the groups' order."""
+    tests = []
+    for a, b in itertools.combinations(samples, 2):
+        u, p = mann_whitney(samples[a], samples[b])
+        tests.append(PairTest(a, b, len(samples[a]), len(samples[b]), u, p))
+    return tests
+
+
+def describe(values: Sequence[float]) -> dict:
+    """n, median, mean, standard deviation (ddof 0), min and max; NaN for an empty sample."""
+    x = np.asarray(values, dtype=np.float64)
+    if len(x) == 0:
+        return {"n": 0, **{k: math.nan for k in ("median", "mean", "std", "min", "max")}}
+    return {
+        "n": int(len(x)),
+        "median": float(np.median(x)),
+        "mean": float(np.mean(x)),
+        "std": float(np.std(x)),
+        "min": float(np.min(x)),
+        "max": float(np.max(x)),
+    }
+
+
+def run_statistics(
+    groups: Mapping[str, Sequence[RunLog]], column: str = "best_velocity"
+) -> dict:
+    """What ``somite plot`` writes as JSON: per group the final ``column`` of every run and its
+    summary, plus the pairwise two-sided Mann-Whitney tests.
+
+    NaN (an empty group or a failed test) is written as null by :func:`to_json`.
+    """
+    samples = {label: final_values(runs, column) for label, runs in groups.items()}
+    sizes = {label: final_values(runs, "best_size") for label, runs in groups.items()}
+    return {
+        "column": column,
+        "groups": {
+            label: {
+                "runs": [str(run.path) for run in groups[label]],
+                "final": [float(v) for v in samples[label]],
+                **describe(samples[label]),
+                "final_best_size": describe(sizes[label]),
+            }
+            for label in groups
+        },
+        "tests": [
+            {"test": "mann-whitney-u, two-sided", **test._asdict()}
+            for test in pairwise_mann_whitney(samples)
+        ],
+    }
+
+
+def to_json(data) -> str:
+    """Strict JSON (NaN and infinities become null)."""
+    return json.dumps(_clean(data), indent=2, allow_nan=False) + "\n"
+
+
+def _clean(value):
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    return value

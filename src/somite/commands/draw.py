@@ -1,0 +1,34 @@
+"""``somite draw``: a controller on its body at rest (paper Figures 6 and 12)."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..modules.partition import Partition
+from ..viz.brain import BRAIN_FORMATS, draw_brain
+from ..viz.render import check_output
+from .common import load_genome
+
+HELP = "Draw a genome's graph on its body (PNG or SVG), optionally coloured by modules."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("genome", help="genome JSON, or a run directory (its best.json)")
+    parser.add_argument("--out", default="brain.png", help="brain.png or brain.svg")
+    parser.add_argument("--partition", default=None,
+                        help="worm-halves, biped-legs, paper, or a label grid like AAABBB/AAABBB")
+
+
+def run(args: argparse.Namespace) -> int:
+    out = check_output(args.out, BRAIN_FORMATS)
+    genome = load_genome(args.genome)
+    partition = None
+    if args.partition is not None:
+        partition = Partition.parse(args.partition, genome.body.shape)
+    drawing = draw_brain(genome, out, partition)
+    summary = f"wrote {out}: {genome.n_nodes} nodes, {genome.n_edges} edges"
+    if partition is not None:
+        n_cut = sum(edge.cut for edge in drawing.edges)
+        summary += f", {n_cut} cut by the {len(partition.modules)} modules"
+    print(summary)
+    return 0

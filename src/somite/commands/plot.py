@@ -1,0 +1,35 @@
+"""``somite plot``: curves and boxplots of run directories (paper Figures 3, 5, 10, 11)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from ..viz.plots import KINDS, PLOT_FORMATS, plot_runs, stats_path
+from ..viz.render import check_output
+
+HELP = "Plot best v_x and |G| over generations and final-v_x boxplots with Mann-Whitney p."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("runs", nargs="+", help="run directories (config.json and log.csv)")
+    parser.add_argument("--out", default="runs.png", help="fig.png, fig.svg or fig.pdf; the "
+                        "statistics go beside it as fig.stats.json")
+    parser.add_argument("--group-by", default="shape",
+                        help="config.json key(s), comma-separated: shape, omega, weights_only, ...")
+    parser.add_argument("--kind", default="both", choices=KINDS)
+
+
+def run(args: argparse.Namespace) -> int:
+    out = check_output(args.out, PLOT_FORMATS)
+    plot_runs(args.runs, out, args.group_by, args.kind)
+    stats = json.loads(stats_path(out).read_text(encoding="utf-8"))
+    print(f"wrote {out} and {stats_path(out)}")
+    for label, group in stats["groups"].items():
+        median = group["median"]
+        shown = "n/a" if median is None else f"{median:.3f} m/s"
+        print(f"  {label}: {group['n']} runs, median final best v_x {shown}")
+    for test in stats["tests"]:
+        p = "n/a" if test["p"] is None else f"{test['p']:.4g}"
+        print(f"  {test['a']} vs {test['b']}: Mann-Whitney U = {test['u']}, p = {p}")
+    return 0

@@ -1,0 +1,99 @@
+"""``somite show``: watch a robot, as a video or a time-lapse strip (paper Figures 1 and 4)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from ..errors import bad
+from ..sim.config import CONTROL_HZ, PRESETS, SimConfig, preset
+from ..sim.terrain import TERRAIN_HELP
+from ..viz.render import check_output, frame_steps
+from ..viz.video import (
+    DEFAULT_STRIP_FRAMES,
+    OUTPUT_FORMATS,
+    STRIP_FORMATS,
+    TILE_SIZE,
+    VIDEO_SIZE,
+    frame_size,
+    record_episode,
+    write_episode,
+)
+from .common import finite_float, load_genome
+
+HELP = "Simulate a genome (file or run directory) and write an MP4/GIF video or a PNG strip."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("genome", help="genome JSON, or a run directory (its best.json)")
+    parser.add_argument("--terrain", default="hilly-1-10-0", help=TERRAIN_HELP)
+    parser.add_argument("--duration", type=finite_float("duration"), default=None,
+                        help="[s]; default: the run's, else 30")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+    parser.add_argument("--preset", default=None, choices=sorted(PRESETS),
+                        help="default: the run's, else paper")
+    parser.add_argument("--out", default=None,
+                        help="walk.mp4 or walk.gif (video), strip.png (time-lapse); "
+                        "default walk.mp4, or strip.png with --frames")
+    parser.add_argument("--frames", type=int, default=None,
+                        help=f"tiles of a .png time-lapse (default {DEFAULT_STRIP_FRAMES})")
+    parser.add_argument("--brain", action="store_true", help="draw the controller on the body")
+    parser.add_argument("--fps", type=finite_float("fps"), default=30.0,
+                        help="video frames per second, at most 60 (30: every other step)")
+    parser.add_argument("--width", type=int, default=None,
+                        help="video width (960) or tile width (320) [px]")
+    parser.add_argument("--height", type=int, default=None,
+                        help="video height (540) or tile height (240) [px]")
+
+
+def run(args: argparse.Namespace) -> int:
+    out = args.out or ("strip.png" if args.frames is not None else "walk.mp4")
+    out = check_output(out, OUTPUT_FORMATS)
+    if args.frames is not None:
+        if out.suffix.lower() not in STRIP_FORMATS:
+            raise bad("frames", args.frames, "a time-lapse strip is a .png; drop --frames")
+        if args.frames < 1:
+            raise bad("frames", args.frames, "must be at least 1")
+    # Check what can be checked before a simulation that may take a while.
+    frame_steps(1, args.fps)
+    frame_size(args.width, args.height, TILE_SIZE if out.suffix.lower() in STRIP_FORMATS
+               else VIDEO_SIZE)
+    if args.seed < 0:
+        raise bad("seed", args.seed, "must be zero or positive")
+    genome = load_genome(args.genome)
+    config = _config(args, _run_config(args.genome))
+    recording = record_episode(genome.body, genome, args.terrain, config, args.seed)
+    if not recording.complete:
+        stop = recording.n_steps / CONTROL_HZ
+        print(f"somite show: note: the simulation went non-finite after t = {stop:.2f} s; "
+              "the output stops there", file=sys.stderr)
+    write_episode(recording, out, args.fps, args.width, args.height,
+                  genome if args.brain else None, args.frames)
+    start = config.transient_steps / CONTROL_HZ
+    print(f"wrote {out}: {genome.body.shape.grid_string()} on {recording.terrain.name}, "
+          f"{config.duration:g} s, v_x = {recording.velocity:.3f} m/s "
+          f"(over [{start:g} s, {config.duration:g} s])")
+    return 0
+
+
+def _run_config(target: str) -> dict:
+    """The run's config.json when ``target`` is a run directory, else nothing."""
+    path = Path(target) / "config.json"
+    if not path.is_file():
+        return {}
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise bad("config", str(path), f"cannot read it ({error})") from None
+    return data if isinstance(data, dict) else {}
+
+
+def _config(args: argparse.Namespace, run: dict) -> SimConfig:
+    name = args.preset or run.get("preset", "paper")
+    duration = args.duration if args.duration is not None else run.get("duration", 30.0)
+    options = {"duration": float(duration)}
+    if isinstance(run.get("transient"), (int, float)):
+        options["transient"] = float(run["transient"])
+    return preset(name, **options)

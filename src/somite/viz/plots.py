@@ -1,0 +1,189 @@
+"""Plots of run directories: the paper's Figures 3/10 (curves) and 5/11 (boxplots).
+
+Curves: the best individual's v_x and size |G| over the generations, as the median across the
+runs of each group with a band of +/- one standard deviation. Boxplots: the best v_x at the last
+generation, one point per run, with the two-sided Mann-Whitney p-value of every pair of groups
+on a bar above them. Groups are runs sharing the value of a ``config.json`` key (``shape``,
+``omega``, ``weights_only``, ... or several, comma-separated). The numbers come from
+:mod:`somite.analysis.stats`, which ``somite plot`` also writes as JSON beside the figure.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from ..analysis.stats import (
+    PairTest,
+    RunLog,
+    final_values,
+    group_runs,
+    load_run,
+    pairwise_mann_whitney,
+    run_statistics,
+    to_json,
+)
+from ..errors import bad
+from .render import atomic_output, check_output
+
+PLOT_FORMATS = (".png", ".svg", ".pdf")
+KINDS = ("curves", "box", "both")
+COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
+           "#7f7f7f", "#bcbd22", "#17becf")
+
+
+def stats_path(out_path: str | os.PathLike) -> Path:
+    """Where the statistics of a figure go: ``fig.png`` -> ``fig.stats.json``."""
+    out_path = Path(out_path)
+    return out_path.with_name(out_path.stem + ".stats.json")
+
+
+def plot_runs(
+    run_dirs: Sequence[str | os.PathLike],
+    out_path: str | os.PathLike,
+    group_by: str = "shape",
+    kind: str = "both",
+) -> Path:
+    """Plot run directories into ``out_path`` and write their statistics beside it.
+
+    Parameters
+    ----------
+    run_dirs : sequence of paths
+        Run directories, each with ``config.json`` and ``log.csv``.
+    out_path : path
+        ``.png``, ``.svg`` or ``.pdf``; the statistics go to :func:`stats_path`.
+    group_by : str
+        One or more ``config.json`` keys, comma-separated.
+    kind : str
+        ``curves``, ``box`` or ``both``.
+
+    Returns
+    -------
+    Path
+        ``out_path``.
+    """
+    out_path = check_output(out_path, PLOT_FORMATS)
+    if kind not in KINDS:
+        raise bad("kind", kind, f"use one of {list(KINDS)}")
+    if not run_dirs:
+        raise bad("runs", "", "give at least one run directory")
+    groups = group_runs([load_run(path) for path in run_dirs], group_by)
+    figure = _figure(groups, kind, group_by)
+    with atomic_output(out_path) as tmp:
+        figure.savefig(tmp, dpi=110, format=out_path.suffix.lower().lstrip("."))
+    with atomic_output(stats_path(out_path)) as tmp:
+        data = {"group_by": group_by, **run_statistics(groups)}
+        tmp.write_text(to_json(data), encoding="utf-8")
+    return out_path
+
+
+def _figure(groups: dict[str, list[RunLog]], kind: str, group_by: str):
+    # No pyplot: no global figure registry and no GUI backend to pick.
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    width = {"curves": 5.5, "box": 1.6 + 1.1 * len(groups), "both": 6.0 + 1.1 * len(groups)}
+    figure = Figure(figsize=(max(4.5, width[kind]), 5.2), layout="constrained")
+    FigureCanvasAgg(figure)
+    if kind == "curves":
+        top, bottom = figure.subplots(2, 1, sharex=True)
+        box = None
+    elif kind == "box":
+        top = bottom = None
+        box = figure.subplots(1, 1)
+    else:
+        grid = figure.add_gridspec(2, 2, width_ratios=(5.5, max(2.0, 1.1 * len(groups))))
+        top = figure.add_subplot(grid[0, 0])
+        bottom = figure.add_subplot(grid[1, 0], sharex=top)
+        box = figure.add_subplot(grid[:, 1])
+    if top is not None:
+        plot_curves(top, groups, "best_velocity", "best $v_x$ [m/s]")
+        plot_curves(bottom, groups, "best_size", "|G| of the best")
+        bottom.set_xlabel("generation")
+        top.legend(fontsize=7, frameon=False)
+    if box is not None:
+        plot_boxes(box, groups)
+    figure.suptitle(f"{sum(len(r) for r in groups.values())} runs grouped by {group_by}",
+                    fontsize=9)
+    return figure
+
+
+def curve(runs: Sequence[RunLog], column: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Generations, median and standard deviation of ``column`` across ``runs``.
+
+    Runs of different lengths are aligned on the generation number; each generation's numbers
+    use the runs that reached it.
+    """
+    generations = np.unique(np.concatenate([run.log["generation"] for run in runs]))
+    table = np.full((len(runs), len(generations)), np.nan)
+    for i, run in enumerate(runs):
+        table[i, np.searchsorted(generations, run.log["generation"])] = run.log[column]
+    with warnings.catch_warnings():
+        # A generation where every run logged NaN gives NaN; numpy would also warn about it.
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return generations, np.nanmedian(table, axis=0), np.nanstd(table, axis=0)
+
+
+def plot_curves(axes, groups: dict[str, list[RunLog]], column: str, label: str) -> None:
+    """Median +/- standard deviation of ``column`` over generations, one colour per group."""
+    for k, (name, runs) in enumerate(groups.items()):
+        colour = COLOURS[k % len(COLOURS)]
+        x, median, std = curve(runs, column)
+        axes.fill_between(x, median - std, median + std, color=colour, alpha=0.2, lw=0)
+        axes.plot(x, median, color=colour, lw=1.5, label=f"{name} ({len(runs)} runs)")
+    axes.set_ylabel(label)
+    axes.grid(alpha=0.3)
+
+
+def plot_boxes(
+    axes, groups: dict[str, list[RunLog]], column: str = "best_velocity"
+) -> list[PairTest]:
+    """Boxplots of the last generation's ``column`` per group, every run as a dot, and the
+    pairwise Mann-Whitney p-values on bars above; returns the tests drawn."""
+    samples = {name: final_values(runs, column) for name, runs in groups.items()}
+    positions = np.arange(1, len(samples) + 1)
+    data = [values if len(values) else [np.nan] for values in samples.values()]
+    parts = axes.boxplot(data, positions=positions, widths=0.55, tick_labels=list(samples),
+                         showfliers=False, patch_artist=True)
+    for k, (patch, values) in enumerate(zip(parts["boxes"], samples.values())):
+        colour = COLOURS[k % len(COLOURS)]
+        patch.set(facecolor=colour, alpha=0.35, edgecolor=colour)
+        jitter = np.random.default_rng(k).uniform(-0.12, 0.12, len(values))
+        axes.scatter(positions[k] + jitter, values, s=12, color=colour, zorder=3)
+    for median in parts["medians"]:
+        median.set(color="black", lw=1.5)
+    tests = pairwise_mann_whitney(samples)
+    _p_value_bars(axes, tests, list(samples), samples)
+    axes.set_ylabel("best $v_x$ at the last generation [m/s]")
+    axes.tick_params(axis="x", labelrotation=20 if len(samples) > 2 else 0, labelsize=8)
+    axes.grid(axis="y", alpha=0.3)
+    return tests
+
+
+def _p_value_bars(axes, tests: list[PairTest], names: list[str], samples: dict) -> None:
+    values = np.concatenate([v for v in samples.values()] + [np.zeros(0)])
+    if len(values) == 0:
+        return
+    low, high = float(np.min(values)), float(np.max(values))
+    step = 0.09 * max(high - low, 1e-6)
+    # Short bars (neighbours) low, long ones above them, so no bar crosses a label.
+    order = sorted(tests, key=lambda t: (names.index(t.b) - names.index(t.a), names.index(t.a)))
+    for level, test in enumerate(order, start=1):
+        a, b = names.index(test.a) + 1, names.index(test.b) + 1
+        y = high + level * step
+        axes.plot([a, a, b, b], [y - 0.3 * step, y, y, y - 0.3 * step], color="black", lw=0.8)
+        axes.text(0.5 * (a + b), y, _p_text(test.p), ha="center", va="bottom", fontsize=7)
+    axes.set_ylim(low - step, high + (len(order) + 1.2) * step)
+
+
+def _p_text(p: float) -> str:
+    if not np.isfinite(p):
+        return "p = n/a"
+    return "p < 0.001" if p < 0.001 else f"p = {p:.3g}"
+
+
+__all__ = ["PLOT_FORMATS", "curve", "plot_boxes", "plot_curves", "plot_runs", "stats_path"]

@@ -1,0 +1,238 @@
+"""Episodes to files: an MP4 or GIF video, or a PNG time-lapse strip (paper Figure 4).
+
+:func:`render_episode` is the one-call entry point (``make demo`` uses it); ``somite show``
+uses its two halves, :func:`record_episode` (the simulation, through the public
+:func:`somite.tasks.locomotion.simulate`) and :func:`write_episode` (the drawing and writing).
+Every file is written to a temporary name beside the target and renamed when complete.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import numpy as np
+from PIL import Image
+
+from ..brain.compile import compile_genome
+from ..brain.controllers import Sine, Table, Zero
+from ..brain.genome import Genome
+from ..errors import bad
+from ..sim.body import Body
+from ..sim.config import SimConfig, preset
+from ..sim.terrain import Terrain, parse_terrain
+from ..tasks.locomotion import simulate
+from .brain import brain_overlay
+from .render import (
+    AREA_RAMP,
+    Overlay,
+    Recording,
+    atomic_output,
+    check_output,
+    render_frames,
+    render_strip,
+)
+
+VIDEO_FORMATS = (".mp4", ".gif")
+STRIP_FORMATS = (".png",)
+OUTPUT_FORMATS = VIDEO_FORMATS + STRIP_FORMATS
+VIDEO_SIZE = (960, 540)
+TILE_SIZE = (320, 240)
+DEFAULT_STRIP_FRAMES = 6
+
+
+def record_episode(
+    body: Body,
+    controller: Genome | Zero | Sine | Table,
+    terrain: Terrain | str = "hilly-1-10-0",
+    config: SimConfig | None = None,
+    seed: int = 0,
+) -> Recording:
+    """Simulate one robot with recording on and keep what the renderer needs.
+
+    Parameters
+    ----------
+    body : Body
+    controller : Genome or open-loop controller
+        A genome is compiled to its graph controller; it must be of ``body``.
+    terrain : Terrain or str
+        A terrain or its name (``flat``, ``hilly-1-10-0``, ...).
+    config : SimConfig, optional
+        The paper preset by default.
+    seed : int
+        Seed of the sensor noise.
+
+    Returns
+    -------
+    Recording
+    """
+    if isinstance(controller, Genome):
+        if controller.body != body:
+            raise bad("genome", controller.body.shape.grid_string(), "is not of this body")
+        controller = compile_genome(controller)
+    terrain = parse_terrain(terrain) if isinstance(terrain, str) else terrain
+    config = config or preset("paper")
+    [outcome], trace = simulate([body], [terrain], [controller], config, seeds=seed, record=True)
+    return Recording.from_trace(trace, 0, body, terrain, config, outcome.velocity)
+
+
+def write_episode(
+    recording: Recording,
+    out_path: str | os.PathLike,
+    fps: float = 30,
+    width: int | None = None,
+    height: int | None = None,
+    genome: Genome | None = None,
+    frames: int | None = None,
+) -> Path:
+    """Draw ``recording`` into ``out_path``: ``.mp4`` or ``.gif`` (a video at ``fps``) or
+    ``.png`` (a strip of ``frames`` tiles, :data:`DEFAULT_STRIP_FRAMES` by default).
+
+    ``width`` x ``height`` is the video's size (960 x 540 by default) or one tile's (320 x
+    240). With ``genome``, the controller is drawn on the body.
+    """
+    out_path = check_output(out_path, OUTPUT_FORMATS)
+    suffix = out_path.suffix.lower()
+    overlays: list[Overlay] = [brain_overlay(genome)] if genome is not None else []
+    if suffix in STRIP_FORMATS:
+        w, h = frame_size(width, height, TILE_SIZE)
+        strip = render_strip(recording, frames or DEFAULT_STRIP_FRAMES, w, h, overlays,
+                             sensors=not overlays)
+        with atomic_output(out_path) as tmp:
+            strip.image.save(tmp, format="PNG", optimize=True)
+        return out_path
+    if frames is not None:
+        raise bad("frames", frames, "a time-lapse strip is a .png; drop --frames for a video")
+    # libx264 with yuv420p needs even sizes; rounding up here spares imageio's resize warning.
+    w, h = (2 * ((n + 1) // 2) for n in frame_size(width, height, VIDEO_SIZE))
+    images = (f.image for f in render_frames(recording, fps, w, h, overlays,
+                                             sensors=not overlays))
+    return write_video(images, out_path, fps)
+
+
+def frame_size(width: int | None, height: int | None, default: tuple[int, int]) -> tuple[int, int]:
+    """(width, height) in pixels, ``default`` filling what is None; one-line error if absurd."""
+    w = default[0] if width is None else int(width)
+    h = default[1] if height is None else int(height)
+    for name, value in (("width", w), ("height", h)):
+        if not 16 <= value <= 8192:
+            raise bad(name, value, "must be between 16 and 8192 pixels")
+    return w, h
+
+
+def write_video(images: Iterable[Image.Image], out_path: str | os.PathLike, fps: float) -> Path:
+    """Write RGB images of one size as an MP4 (H.264, through imageio-ffmpeg) or a GIF."""
+    out_path = check_output(out_path, VIDEO_FORMATS)
+    with atomic_output(out_path) as tmp:
+        if out_path.suffix.lower() == ".mp4":
+            _write_mp4(images, tmp, fps)
+        else:
+            _write_gif(images, tmp, fps)
+    return out_path
+
+
+def _write_mp4(images: Iterable[Image.Image], path: Path, fps: float) -> None:
+    import imageio.v2 as imageio
+
+    writer = imageio.get_writer(
+        str(path), format="FFMPEG", mode="I", fps=fps, codec="libx264", quality=8,
+        pixelformat="yuv420p", macro_block_size=2, ffmpeg_log_level="error",
+    )
+    try:
+        for image in images:
+            writer.append_data(np.asarray(image))
+    finally:
+        writer.close()
+
+
+def _write_gif(images: Iterable[Image.Image], path: Path, fps: float) -> None:
+    iterator = iter(images)
+    first = next(iterator)
+    # One palette for all frames (no flicker), made from the first frame plus every colour a
+    # voxel can take later on.
+    palette = _gif_palette(first)
+    frames = [_quantize(first, palette)] + [_quantize(image, palette) for image in iterator]
+    # GIF delays are in 1/100 s: alternate them so that the mean matches fps (30 -> 30, 40 ms).
+    ticks = np.round(np.arange(len(frames) + 1) * 100.0 / fps).astype(int)
+    durations = [int(10 * d) for d in np.maximum(np.diff(ticks), 1)]
+    frames[0].save(path, format="GIF", save_all=True, append_images=frames[1:],
+                   duration=durations, loop=0, optimize=False)
+
+
+def _gif_palette(first: Image.Image) -> Image.Image:
+    ramp = Image.new("RGB", (len(AREA_RAMP), 1))
+    ramp.putdata([tuple(c) for c in AREA_RAMP])
+    ramp = ramp.resize((first.width, 8), Image.Resampling.NEAREST)
+    sample = Image.new("RGB", (first.width, first.height + 8))
+    sample.paste(first, (0, 0))
+    sample.paste(ramp, (0, first.height))
+    return sample.quantize(colors=256, method=Image.Quantize.MEDIANCUT)
+
+
+def _quantize(image: Image.Image, palette: Image.Image) -> Image.Image:
+    return image.quantize(palette=palette, dither=Image.Dither.NONE)
+
+
+def render_episode(
+    genome: Genome | str | os.PathLike,
+    out_path: str | os.PathLike,
+    terrain_name: str = "hilly-1-10-0",
+    duration: float | None = None,
+    config: SimConfig | None = None,
+    seed: int = 0,
+    brain: bool = False,
+    fps: float = 30,
+    width: int | None = None,
+    height: int | None = None,
+    frames: int | None = None,
+) -> Path:
+    """Simulate ``genome`` on ``terrain_name`` and write the episode to ``out_path``.
+
+    Parameters
+    ----------
+    genome : Genome or path
+        The controller, or a genome JSON file.
+    out_path : path
+        ``.mp4``, ``.gif`` or ``.png`` (time-lapse strip, see :func:`write_episode`).
+    terrain_name : str
+        Any terrain name :func:`somite.sim.terrain.parse_terrain` reads.
+    duration : float, optional
+        Episode length [s]; the config's (30 s for the paper preset) by default.
+    config : SimConfig, optional
+        Simulation settings; the paper preset by default.
+    seed : int
+        Sensor-noise seed.
+    brain : bool
+        Draw the controller graph on the body.
+    fps : float
+        Video frame rate, at most 60 (the control rate); 30 shows every other step.
+    width, height : int, optional
+        Video size, or tile size for a strip.
+    frames : int, optional
+        Tiles of a ``.png`` strip.
+
+    Returns
+    -------
+    Path
+        ``out_path``.
+    """
+    if not isinstance(genome, Genome):
+        genome = Genome.load(genome)
+    out_path = check_output(out_path, OUTPUT_FORMATS)
+    config = config or preset("paper")
+    if duration is not None:
+        config = config.with_options(duration=float(duration))
+    recording = record_episode(genome.body, genome, terrain_name, config, seed)
+    return write_episode(recording, out_path, fps, width, height,
+                         genome if brain else None, frames)
+
+
+__all__: Sequence[str] = [
+    "OUTPUT_FORMATS",
+    "frame_size",
+    "record_episode",
+    "render_episode",
+    "write_episode",
+    "write_video",
+]

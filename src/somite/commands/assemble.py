@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..errors import bad
 from ..modules.library import assemble, list_library, parse_placement, write_atomic
-from .common import finite_float
+from .common import finite_float, seed_int
 
 HELP = "Assemble a robot from library modules placed at grid offsets (NAME@X,Y)."
 
@@ -26,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--duration", type=finite_float("duration"), default=30.0, help="[s]")
     parser.add_argument("--preset", default="paper", help="simulation preset")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the sensor noise")
 
 
 def run(args: argparse.Namespace) -> int:

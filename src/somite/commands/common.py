@@ -45,3 +45,14 @@ def load_genome(path: str):
     elif not target.exists():
         raise bad("genome", path, "no such file or run directory")
     return Genome.load(target)
+
+
+def seed_int(text: str) -> int:
+    """An argparse type: a seed in [0, 2**32), or a one-line error naming ``seed``."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(str(bad("seed", text, "must be an integer"))) from None
+    if not 0 <= value < 2**32:
+        raise argparse.ArgumentTypeError(str(bad("seed", text, "must be in [0, 2**32)")))
+    return value

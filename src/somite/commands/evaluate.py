@@ -10,7 +10,7 @@ from ..errors import bad
 from ..sim.config import PRESETS, preset
 from ..sim.terrain import parse_terrain
 from ..tasks.validation import evaluate, validation_terrains
-from .common import finite_float, load_genome, print_json
+from .common import finite_float, load_genome, print_json, seed_int
 
 HELP = "Evaluate a genome (file or run directory) on validation terrains; per-terrain v_x."
 
@@ -23,7 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="how many fixed validation terrains when no --terrain is given")
     parser.add_argument("--duration", type=finite_float("duration"), default=30.0, help="[s]")
     parser.add_argument("--preset", default="paper", choices=sorted(PRESETS))
-    parser.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the sensor noise")
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 

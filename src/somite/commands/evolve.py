@@ -8,7 +8,7 @@ import math
 from ..errors import bad
 from ..evolution.config import EvolutionConfig, load_toml, resolve
 from ..experiments.runner import RunDirectory, RunState, evolve
-from .common import finite_float
+from .common import finite_float, seed_int
 
 HELP = "Evolve a graph controller with the paper's EA; writes logs, bests and checkpoints."
 
@@ -26,7 +26,7 @@ def add_evolution_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", help="paper (default) or original-code")
     parser.add_argument("--generations", type=int)
     parser.add_argument("--population", type=int)
-    parser.add_argument("--seed", type=int)
+    parser.add_argument("--seed", type=seed_int)
     parser.add_argument("--terrain", help="hilly-1-10-rnd (a new terrain per evaluation) or a name")
     parser.add_argument("--duration", type=finite_float("duration"), help="episode length [s]")
     parser.add_argument("--omega", type=finite_float("omega"), help="modularity bias (1 = none)")

@@ -22,7 +22,7 @@ from ..modules.library import write_atomic
 from ..modules.module import Take, cut, reassemble
 from ..modules.partition import Partition
 from ..sim.body import Body, Shape
-from .common import finite_float
+from .common import finite_float, seed_int
 
 HELP = "Reassemble a robot from modules of two donor genomes; report eta, v_x and rho."
 
@@ -78,7 +78,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--duration", type=finite_float("duration"), default=30.0, help="[s]")
     parser.add_argument("--preset", default="paper", help="simulation preset")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the sensor noise")
     parser.add_argument("--draw", action="store_true", help="draw the brain on the body")
 
 

@@ -21,7 +21,7 @@ from ..viz.video import (
     record_episode,
     write_episode,
 )
-from .common import finite_float, load_genome
+from .common import finite_float, load_genome, seed_int
 
 HELP = "Simulate a genome (file or run directory) and write an MP4/GIF video or a PNG strip."
 
@@ -31,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--terrain", default="hilly-1-10-0", help=TERRAIN_HELP)
     parser.add_argument("--duration", type=finite_float("duration"), default=None,
                         help="[s]; default: the run's, else 30")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the sensor noise")
     parser.add_argument("--preset", default=None, choices=sorted(PRESETS),
                         help="default: the run's, else paper")
     parser.add_argument("--out", default=None,

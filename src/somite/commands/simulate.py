@@ -9,7 +9,7 @@ from ..sim.body import Body
 from ..sim.config import PRESETS, preset
 from ..sim.terrain import TERRAIN_HELP, parse_terrain
 from ..tasks.locomotion import simulate
-from .common import finite_float, print_json
+from .common import finite_float, print_json, seed_int
 
 HELP = "Simulate one robot and print how it went (v_x over [5 s, end], distance, ...)."
 
@@ -23,7 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--duration", type=finite_float("duration"), default=30.0, help="[s]")
     parser.add_argument("--preset", default="paper", choices=sorted(PRESETS))
-    parser.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the sensor noise")
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..brain.controllers import GraphArrays, Sine, Table, Zero
+from ..errors import bad
 from ..sim.body import Body
 from ..sim.config import CONTROL_HZ, SimConfig, pack_params
 from ..sim.system import System, compile_system
@@ -170,6 +171,9 @@ def simulate(
         raise ValueError("bodies, terrains and controllers must have the same length")
     if isinstance(seeds, (int, np.integer)):
         seeds = [int(seeds)] * n
+    for seed in seeds:
+        if not 0 <= int(seed) < 2**64:
+            raise bad("seed", seed, "must be in [0, 2**64)")
     system = compile_system(bodies, terrains, config.start_gap)
     ctrl = compile_controllers(controllers, [b.shape.n_voxels for b in bodies])
     trace = run(system, ctrl, config, seeds, record)

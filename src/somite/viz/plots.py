@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import os
 import warnings
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -59,7 +59,8 @@ def plot_runs(
     group_by : str
         One or more ``config.json`` keys, comma-separated.
     kind : str
-        ``curves``, ``box`` or ``both``.
+        ``curves``, ``box`` or ``both`` (``both`` shows the curves alone when no group has
+        two runs or more).
 
     Returns
     -------
@@ -72,6 +73,8 @@ def plot_runs(
     if not run_dirs:
         raise bad("runs", "", "give at least one run directory")
     groups = group_runs([load_run(path) for path in run_dirs], group_by)
+    if kind == "both" and all(len(runs) < 2 for runs in groups.values()):
+        kind = "curves"  # a box of one run says nothing: show the curves alone
     figure = _figure(groups, kind, group_by)
     with atomic_output(out_path) as tmp:
         figure.savefig(tmp, dpi=110, format=out_path.suffix.lower().lstrip("."))
@@ -79,6 +82,10 @@ def plot_runs(
         data = {"group_by": group_by, **run_statistics(groups)}
         tmp.write_text(to_json(data), encoding="utf-8")
     return out_path
+
+
+def _runs(count: int) -> str:
+    return f"{count} run" if count == 1 else f"{count} runs"
 
 
 def _figure(groups: dict[str, list[RunLog]], kind: str, group_by: str):
@@ -107,7 +114,8 @@ def _figure(groups: dict[str, list[RunLog]], kind: str, group_by: str):
         top.legend(fontsize=7, frameon=False)
     if box is not None:
         plot_boxes(box, groups)
-    figure.suptitle(f"{sum(len(r) for r in groups.values())} runs grouped by {group_by}",
+    total = sum(len(r) for r in groups.values())
+    figure.suptitle(f"{_runs(total)} grouped by {group_by}",
                     fontsize=9)
     return figure
 
@@ -134,7 +142,7 @@ def plot_curves(axes, groups: dict[str, list[RunLog]], column: str, label: str) 
         colour = COLOURS[k % len(COLOURS)]
         x, median, std = curve(runs, column)
         axes.fill_between(x, median - std, median + std, color=colour, alpha=0.2, lw=0)
-        axes.plot(x, median, color=colour, lw=1.5, label=f"{name} ({len(runs)} runs)")
+        axes.plot(x, median, color=colour, lw=1.5, label=f"{name} ({_runs(len(runs))})")
     axes.set_ylabel(label)
     axes.grid(alpha=0.3)
 
@@ -159,6 +167,7 @@ def plot_boxes(
     tests = pairwise_mann_whitney(samples)
     _p_value_bars(axes, tests, list(samples), samples)
     axes.set_ylabel("best $v_x$ at the last generation [m/s]")
+    axes.ticklabel_format(axis="y", useOffset=False)
     axes.tick_params(axis="x", labelrotation=20 if len(samples) > 2 else 0, labelsize=8)
     axes.grid(axis="y", alpha=0.3)
     return tests

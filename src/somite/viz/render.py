@@ -23,10 +23,11 @@ import functools
 import math
 import os
 import uuid
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Callable, Iterator, NamedTuple, Sequence
+from typing import NamedTuple
 
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
@@ -133,7 +134,7 @@ class Recording:
 
     @classmethod
     def from_trace(cls, trace, robot: int, body: Body, terrain: Terrain, config: SimConfig,
-                   velocity: float = math.nan) -> "Recording":
+                   velocity: float = math.nan) -> Recording:
         """Robot ``robot`` of a trace recorded with ``simulate(..., record=True)``.
 
         The recording is cut before the first step with a non-finite position, if any.
@@ -275,7 +276,7 @@ class View:
         y = self.y0 + (self.top + self.height - pixels[..., 1]) / self.scale
         return np.stack([x, y], axis=-1)
 
-    def supersampled(self, factor: int) -> "View":
+    def supersampled(self, factor: int) -> View:
         """The same view on a canvas ``factor`` times larger (offsets dropped)."""
         return View(self.x0, self.y0, self.scale * factor, self.width * factor,
                     self.height * factor, 0, 0, self.pixel * factor)

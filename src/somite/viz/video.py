@@ -9,8 +9,8 @@ Every file is written to a temporary name beside the target and renamed when com
 from __future__ import annotations
 
 import os
+from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Iterable, Sequence
 
 import numpy as np
 from PIL import Image

@@ -40,14 +40,17 @@ def rest_length_factor(actuation: float, contract: float, expand: float) -> floa
 
 
 @njit
-def set_rest_lengths(n_springs, owners, rest0, actuation, params, rest):
-    """Rest length of each spring for the voxels' current actuation (mean over its owners)."""
+def set_rest_lengths(n_voxels, n_springs, owners, rest0, actuation, params, factor, rest):
+    """Rest length of each spring for the voxels' current actuation (mean over its owners);
+    ``factor`` (V,) is scratch for the voxels' scales."""
     contract = params[P_CONTRACT]
     expand = params[P_EXPAND]
+    for v in range(n_voxels):
+        factor[v] = rest_length_factor(actuation[v], contract, expand)
     for s in range(n_springs):
-        f = rest_length_factor(actuation[owners[s, 0]], contract, expand)
+        f = factor[owners[s, 0]]
         if owners[s, 1] >= 0:
-            f = 0.5 * (f + rest_length_factor(actuation[owners[s, 1]], contract, expand))
+            f = 0.5 * (f + factor[owners[s, 1]])
         rest[s] = rest0[s] * f
 
 

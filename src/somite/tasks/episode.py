@@ -117,11 +117,11 @@ def _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation,
     elif kind == TABLE:
         table_actuation(k, ctrl.table[b], ctrl.table_period[b], n_voxels, actuation)
     elif kind == GRAPH:
+        # The two state buffers take turns: step k reads what step k - 1 wrote.
+        old, new = (h_prev, h_next) if k % 2 == 1 else (h_next, h_prev)
         graph_step(ctrl.n_nodes[b], ctrl.node_kind[b], ctrl.node_ref[b], ctrl.n_edges[b],
                    ctrl.edge_src[b], ctrl.edge_dst[b], ctrl.edge_weight[b], ctrl.edge_bias[b],
-                   h_prev, h_next, readings, actuation, params[P_HIDDEN_SIGMOID] == 1.0)
-        for n in range(ctrl.n_nodes[b]):
-            h_prev[n] = h_next[n]
+                   old, new, readings, actuation, params[P_HIDDEN_SIGMOID] == 1.0)
 
 
 @njit
@@ -164,6 +164,7 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
     vel_hist = np.zeros((n_voxels, int(params[P_VELOCITY_WINDOW]), 2))
     readings = np.zeros(n_readings)
     actuation = np.zeros(n_voxels)
+    factor = np.ones(n_voxels)
     n_nodes = ctrl.n_nodes[b]
     h_prev = np.zeros(n_nodes)
     h_next = np.zeros(n_nodes)
@@ -179,7 +180,8 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
     fastest = 0.0
     smallest = np.inf
     for k in range(1, n_steps + 1):
-        set_rest_lengths(n_springs, system.spring_owners[b], rest0, actuation, params, rest)
+        set_rest_lengths(n_voxels, n_springs, system.spring_owners[b], rest0, actuation, params,
+                         factor, rest)
         for _ in range(substeps):
             substep(n_points, n_springs, n_boundary, ends, strength, rest, min_length, mass,
                     inv_mass, boundary, pos, vel, force, work, contact, segment, xs, ys, nxs,

@@ -10,6 +10,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from ..brain.controllers import GraphArrays, Sine, Table, Zero
@@ -148,7 +149,12 @@ def run(
     """Run a compiled batch; the lowest-level entry point (no checks, no Python objects)."""
     seeds_arr = np.asarray(seeds, dtype=np.uint64)
     trace = new_trace(len(seeds_arr), config.n_steps, system, record)
-    run_batch(system, controllers, pack_params(config), seeds_arr, config.n_steps, trace)
+    # Robots take unequal times (graph sizes, contacts): hand them out one at a time.
+    previous = numba.set_parallel_chunksize(1)
+    try:
+        run_batch(system, controllers, pack_params(config), seeds_arr, config.n_steps, trace)
+    finally:
+        numba.set_parallel_chunksize(previous)
     return trace
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from somite.errors import SomiteError
-from somite.sim.terrain import JavaRandom, parse_terrain
+from somite.sim.terrain import JavaRandom, hilly, hilly_reference, parse_terrain
 
 
 def test_java_random_matches_java():
@@ -57,3 +57,11 @@ def test_slopes_have_their_angle():
 def test_bad_terrain_names(name):
     with pytest.raises(SomiteError, match="^terrain="):
         parse_terrain(name)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 42, 9999, 2**31 + 7])
+@pytest.mark.parametrize("height, width", [(1.0, 10.0), (2.5, 4.0)])
+def test_compiled_hilly_equals_the_java_random_reference(seed, height, width):
+    terrain = hilly(height, width, seed)
+    xs, ys = hilly_reference(height, width, seed)
+    assert terrain.xs.tolist() == xs and terrain.ys.tolist() == ys

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._jit import njit
 from ..errors import bad
 
 LENGTH = 2000.0
@@ -98,8 +99,70 @@ def flat() -> Terrain:
     return _walled([WALL_WIDTH, LENGTH - WALL_WIDTH], [0.0, 0.0], "flat")
 
 
+_MULT = np.uint64(0x5DEECE66D)
+_ADD = np.uint64(0xB)
+_MASK = np.uint64((1 << 48) - 1)
+
+
+@njit
+def _next_double(state):
+    """java.util.Random.nextDouble on a 48-bit state: (value, new state)."""
+    state = (state * _MULT + _ADD) & _MASK
+    high = state >> np.uint64(22)  # next(26)
+    state = (state * _MULT + _ADD) & _MASK
+    low = state >> np.uint64(21)  # next(27)
+    return (float(high) * 134217728.0 + float(low)) * 2.0**-53, state
+
+
+@njit
+def _hilly_walk(seed, height, width, end_x, wall_width, wall_height):
+    """The authors' hilly profile (see :func:`hilly`) with java.util.Random, compiled: a
+    training run builds a fresh terrain for every evaluation."""
+    state = (np.uint64(seed) ^ _MULT) & _MASK
+    cached = 0.0
+    has_cached = False
+    capacity = int(end_x) + 8  # segments are at least 1 m long
+    xs = np.empty(capacity)
+    ys = np.empty(capacity)
+    xs[0], ys[0], xs[1], ys[1] = 0.0, wall_height, wall_width, 0.0
+    n = 2
+    draws = np.empty(2)
+    while xs[n - 1] < end_x:
+        for k in range(2):  # the x step first, then the height step
+            if has_cached:
+                draws[k] = cached
+                has_cached = False
+                continue
+            while True:
+                u, state = _next_double(state)
+                v, state = _next_double(state)
+                v1 = 2.0 * u - 1.0
+                v2 = 2.0 * v - 1.0
+                s = v1 * v1 + v2 * v2
+                if 0.0 < s < 1.0:
+                    break
+            multiplier = math.sqrt(-2.0 * math.log(s) / s)
+            cached = v2 * multiplier
+            has_cached = True
+            draws[k] = v1 * multiplier
+        xs[n] = xs[n - 1] + max(1.0, (draws[0] * 0.25 + 1.0) * width)
+        ys[n] = ys[n - 1] + draws[1] * height
+        n += 1
+    xs[n] = xs[n - 1] + wall_width
+    ys[n] = wall_height
+    return xs[: n + 1].copy(), ys[: n + 1].copy()
+
+
 def hilly(height: float, width: float, seed: int) -> Terrain:
     """The authors' random walk of heights (original-system.md section 1.5), bit for bit."""
+    xs, ys = _hilly_walk(int(seed), float(height), float(width), LENGTH - WALL_WIDTH,
+                         WALL_WIDTH, WALL_HEIGHT)
+    name = f"hilly-{_fmt(height)}-{_fmt(width)}-{seed}"
+    return Terrain(name, xs, ys)
+
+
+def hilly_reference(height: float, width: float, seed: int) -> tuple[list, list]:
+    """:func:`hilly` in plain Python with :class:`JavaRandom` (the oracle of the tests)."""
     rng = JavaRandom(seed)
     xs = [0.0, WALL_WIDTH]
     ys = [WALL_HEIGHT, 0.0]
@@ -108,8 +171,7 @@ def hilly(height: float, width: float, seed: int) -> Terrain:
         ys.append(ys[-1] + rng.next_gaussian() * height)
     xs.append(xs[-1] + WALL_WIDTH)
     ys.append(WALL_HEIGHT)
-    name = f"hilly-{_fmt(height)}-{_fmt(width)}-{seed}"
-    return Terrain(name, np.asarray(xs, dtype=np.float64), np.asarray(ys, dtype=np.float64))
+    return xs, ys
 
 
 def steppy(height: float, width: float, seed: int) -> Terrain:

@@ -31,7 +31,11 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     from importlib import import_module
 
-    parser = _Parser(prog="somite", description=__doc__.splitlines()[0])
+    parser = _Parser(
+        prog="somite",
+        description="Evolve embodied, modular neural controllers for 2-D voxel-based soft "
+        "robots. `somite COMMAND --help` gives each command's options.",
+    )
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name in command_names():
         module = import_module(f".commands.{name}", __package__)

@@ -31,3 +31,28 @@ def voxel_geometry(body: Body, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     x, y = quads[..., 0], quads[..., 1]
     area = 0.5 * (x * np.roll(y, -1, axis=1) - np.roll(x, -1, axis=1) * y).sum(axis=1)
     return quads.mean(axis=1), area / 9.0
+
+
+def expect_error(field, build):
+    """``build()`` must raise a one-line SomiteError whose message starts with ``field=``."""
+    from somite.errors import SomiteError
+
+    with pytest.raises(SomiteError) as info:
+        build()
+    message = str(info.value)
+    assert message.startswith(f"{field}="), message
+    assert "\n" not in message
+    return message
+
+
+def evolved(shape: str, seed: int, steps: int = 40):
+    """A controller grown by random mutations: hidden nodes and long-range edges."""
+    from somite.evolution.operators import OperatorConfig, initial_genome, mutate
+
+    grow = OperatorConfig(p_mutate_edge=0.2, p_add_edge=0.4, p_remove_edge=0.0, p_add_node=0.4,
+                          p_remove_node=0.0)
+    rng = np.random.default_rng(seed)
+    genome = initial_genome(Body.build(shape), rng)
+    for _ in range(steps):
+        genome, _ = mutate(genome, rng, grow)
+    return genome

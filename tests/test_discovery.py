@@ -9,7 +9,6 @@ import pytest
 
 from somite.brain.genome import Edge, Genome, Node
 from somite.cli import main
-from somite.errors import SomiteError
 from somite.evolution.operators import OperatorConfig, initial_genome, mutate
 from somite.modules.discovery import (
     connected_sets,
@@ -21,14 +20,7 @@ from somite.modules.discovery import (
 from somite.modules.partition import Partition
 from somite.sim.body import Body, Shape, is_connected
 
-
-def expect_error(field, build):
-    with pytest.raises(SomiteError) as info:
-        build()
-    message = str(info.value)
-    assert message.startswith(f"{field}="), message
-    assert "\n" not in message
-    return message
+from .conftest import expect_error
 
 
 def bare(shape: str = "worm") -> Genome:

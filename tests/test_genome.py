@@ -14,6 +14,8 @@ from somite.errors import SomiteError
 from somite.evolution.operators import initial_genome
 from somite.sim.body import Body
 
+from .conftest import expect_error
+
 
 @pytest.fixture(scope="module")
 def worm():
@@ -39,14 +41,6 @@ def tiny(extra_nodes=(), edges=None):
     return Genome(body, nodes, tuple(edges))
 
 
-def expect_error(field, build):
-    """``build()`` must raise a one-line SomiteError whose message starts with ``field=``."""
-    with pytest.raises(SomiteError) as info:
-        build()
-    message = str(info.value)
-    assert message.startswith(f"{field}="), message
-    assert "\n" not in message
-    return message
 
 
 # -- sizes and layout ---------------------------------------------------------------------------

@@ -3,13 +3,10 @@
 import json
 import math
 
-import numpy as np
 import pytest
 
 from somite.brain.genome import Genome
 from somite.cli import main
-from somite.errors import SomiteError
-from somite.evolution.operators import OperatorConfig, initial_genome, mutate
 from somite.modules.library import (
     Placement,
     assemble,
@@ -26,26 +23,7 @@ from somite.sim.body import Body
 from somite.sim.config import SimConfig
 from somite.tasks.validation import evaluate, validation_terrains
 
-GROW = OperatorConfig(
-    p_mutate_edge=0.2, p_add_edge=0.4, p_remove_edge=0.0, p_add_node=0.4, p_remove_node=0.0
-)
-
-
-def evolved(shape: str, seed: int, steps: int = 40) -> Genome:
-    rng = np.random.default_rng(seed)
-    genome = initial_genome(Body.build(shape), rng)
-    for _ in range(steps):
-        genome, _ = mutate(genome, rng, GROW)
-    return genome
-
-
-def expect_error(field, build):
-    with pytest.raises(SomiteError) as info:
-        build()
-    message = str(info.value)
-    assert message.startswith(f"{field}="), message
-    assert "\n" not in message
-    return message
+from .conftest import evolved, expect_error
 
 
 @pytest.fixture(scope="module")

@@ -9,8 +9,7 @@ import pytest
 
 from somite.brain.genome import Edge, Genome, Node
 from somite.cli import main
-from somite.errors import SomiteError
-from somite.evolution.operators import OperatorConfig, initial_genome, mutate, prune
+from somite.evolution.operators import initial_genome, prune
 from somite.modules.module import (
     CutRatio,
     Module,
@@ -26,28 +25,7 @@ from somite.sim.body import Body
 from somite.sim.config import SimConfig
 from somite.tasks.validation import evaluate, validation_terrains
 
-GROW = OperatorConfig(
-    p_mutate_edge=0.2, p_add_edge=0.4, p_remove_edge=0.0, p_add_node=0.4, p_remove_node=0.0
-)
-
-
-def evolved(shape: str, seed: int, steps: int = 40) -> Genome:
-    """A controller grown by random mutations: hidden nodes and long-range edges."""
-    rng = np.random.default_rng(seed)
-    genome = initial_genome(Body.build(shape), rng)
-    for _ in range(steps):
-        genome, _ = mutate(genome, rng, GROW)
-    return genome
-
-
-def expect_error(field, build):
-    """``build()`` must raise a one-line SomiteError whose message starts with ``field=``."""
-    with pytest.raises(SomiteError) as info:
-        build()
-    message = str(info.value)
-    assert message.startswith(f"{field}="), message
-    assert "\n" not in message
-    return message
+from .conftest import evolved, expect_error
 
 
 def row() -> Genome:

@@ -306,12 +306,6 @@ def test_curves_align_runs_on_generations(tmp_path):
     assert std.tolist() == pytest.approx([0.25, 0.5, 0.0, 0.0])
 
 
-def test_log_columns_match_the_run_writer():
-    from somite.experiments.runner import LOG_COLUMNS as written
-
-    assert LOG_COLUMNS == written
-
-
 # -- the command line ---------------------------------------------------------------------------
 
 

@@ -24,22 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import bad
-
-LOG_COLUMNS = (
-    "generation",
-    "evaluations",
-    "elapsed_seconds",
-    "best_velocity",
-    "median_velocity",
-    "worst_velocity",
-    "best_nodes",
-    "best_edges",
-    "best_size",
-    "median_size",
-    "best_operator",
-    "nan_count",
-)
-"""The columns of ``log.csv``, in order."""
+from ..experiments.logfile import LOG_COLUMNS
 
 NUMERIC_COLUMNS = tuple(c for c in LOG_COLUMNS if c != "best_operator")
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..errors import bad
 from ..modules.library import assemble, list_library, parse_placement, write_atomic
-from .common import finite_float, seed_int
+from .common import add_simulation_options, simulation_config
 
 HELP = "Assemble a robot from library modules placed at grid offsets (NAME@X,Y)."
 
@@ -24,9 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--evaluate", type=int, default=0, metavar="N",
         help="also measure v_x on N validation terrains (default 0: no simulation)",
     )
-    parser.add_argument("--duration", type=finite_float("duration"), default=30.0, help="[s]")
-    parser.add_argument("--preset", default="paper", help="simulation preset")
-    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the sensor noise")
+    add_simulation_options(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -58,11 +56,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _sim_config(args):
-    from ..sim.config import preset
 
-    if not args.duration > 0:
-        raise bad("duration", args.duration, "must be positive")
-    return preset(args.preset, duration=args.duration)
+    return simulation_config(args)
 
 
 def _evaluate(args, genome, config) -> dict:

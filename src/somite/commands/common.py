@@ -56,3 +56,21 @@ def seed_int(text: str) -> int:
     if not 0 <= value < 2**32:
         raise argparse.ArgumentTypeError(str(bad("seed", text, "must be in [0, 2**32)")))
     return value
+
+
+def add_simulation_options(parser: argparse.ArgumentParser) -> None:
+    """``--duration``, ``--preset`` and ``--seed``: how a command simulates."""
+    from ..sim.config import PRESETS
+
+    parser.add_argument("--duration", type=finite_float("duration"), default=30.0,
+                        help="episode length [s]")
+    parser.add_argument("--preset", default="paper", choices=sorted(PRESETS),
+                        help="simulation preset")
+    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the sensor noise")
+
+
+def simulation_config(args: argparse.Namespace):
+    """The :class:`~somite.sim.config.SimConfig` of :func:`add_simulation_options`' options."""
+    from ..sim.config import preset
+
+    return preset(args.preset, duration=args.duration)

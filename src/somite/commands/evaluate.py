@@ -7,10 +7,14 @@ import argparse
 import numpy as np
 
 from ..errors import bad
-from ..sim.config import PRESETS, preset
 from ..sim.terrain import parse_terrain
 from ..tasks.validation import evaluate, validation_terrains
-from .common import finite_float, load_genome, print_json, seed_int
+from .common import (
+    add_simulation_options,
+    load_genome,
+    print_json,
+    simulation_config,
+)
 
 HELP = "Evaluate a genome (file or run directory) on validation terrains; per-terrain v_x."
 
@@ -21,9 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="terrain name (repeatable); default: the 10 validation terrains")
     parser.add_argument("--validation", type=int, default=10,
                         help="how many fixed validation terrains when no --terrain is given")
-    parser.add_argument("--duration", type=finite_float("duration"), default=30.0, help="[s]")
-    parser.add_argument("--preset", default="paper", choices=sorted(PRESETS))
-    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the sensor noise")
+    add_simulation_options(parser)
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 
@@ -35,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
         if args.validation < 1:
             raise bad("validation", args.validation, "must be at least 1")
         terrains = validation_terrains(args.validation)
-    config = preset(args.preset, duration=args.duration)
+    config = simulation_config(args)
     velocities = evaluate([genome], terrains, config, args.seed)[0]
     report = {
         "genome": args.genome,

@@ -22,7 +22,7 @@ from ..modules.library import write_atomic
 from ..modules.module import Take, cut, reassemble
 from ..modules.partition import Partition
 from ..sim.body import Body, Shape
-from .common import finite_float, seed_int
+from .common import add_simulation_options, simulation_config
 
 HELP = "Reassemble a robot from modules of two donor genomes; report eta, v_x and rho."
 
@@ -76,9 +76,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--validation", type=int, default=10, metavar="N",
         help="validation terrains for v_x and rho (0: do not simulate; default 10)",
     )
-    parser.add_argument("--duration", type=finite_float("duration"), default=30.0, help="[s]")
-    parser.add_argument("--preset", default="paper", help="simulation preset")
-    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the sensor noise")
+    add_simulation_options(parser)
     parser.add_argument("--draw", action="store_true", help="draw the brain on the body")
 
 
@@ -129,11 +127,8 @@ def _check_out(text: str) -> Path:
 
 
 def _sim_config(args):
-    from ..sim.config import preset
 
-    if not args.duration > 0:
-        raise bad("duration", args.duration, "must be positive")
-    return preset(args.preset, duration=args.duration)
+    return simulation_config(args)
 
 
 def _donor_partitions(specs, donors) -> tuple[Partition, Partition]:

@@ -6,10 +6,9 @@ import argparse
 
 from ..brain.controllers import parse_controller
 from ..sim.body import Body
-from ..sim.config import PRESETS, preset
 from ..sim.terrain import TERRAIN_HELP, parse_terrain
 from ..tasks.locomotion import simulate
-from .common import finite_float, print_json, seed_int
+from .common import add_simulation_options, print_json, simulation_config
 
 HELP = "Simulate one robot and print how it went (v_x over [5 s, end], distance, ...)."
 
@@ -21,9 +20,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--controller", default="sine", help="zero, or sine:freq=F,amp=A,phase=P (1, 1, -1)"
     )
-    parser.add_argument("--duration", type=finite_float("duration"), default=30.0, help="[s]")
-    parser.add_argument("--preset", default="paper", choices=sorted(PRESETS))
-    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the sensor noise")
+    add_simulation_options(parser)
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 
@@ -31,7 +28,7 @@ def run(args: argparse.Namespace) -> int:
     body = Body.build(args.shape, args.sensors)
     terrain = parse_terrain(args.terrain)
     controller = parse_controller(args.controller)
-    config = preset(args.preset, duration=args.duration)
+    config = simulation_config(args)
     [outcome], _ = simulate([body], [terrain], [controller], config, seeds=args.seed)
     report = {
         "shape": body.shape.grid_string(),

@@ -40,22 +40,9 @@ from ..evolution.ea import (
     statistics,
 )
 from ..modules.partition import Partition
+from .logfile import LOG_COLUMNS
 from ..sim.body import Body
 
-LOG_COLUMNS = (
-    "generation",
-    "evaluations",
-    "elapsed_seconds",
-    "best_velocity",
-    "median_velocity",
-    "worst_velocity",
-    "best_nodes",
-    "best_edges",
-    "best_size",
-    "median_size",
-    "best_operator",
-    "nan_count",
-)
 RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json")
 CHECKPOINT_FORMAT = "somite-checkpoint"
 CHECKPOINT_VERSION = 1

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..brain.genome import Genome
 from ..errors import bad
-from ..sim.body import Shape
+from ..sim.body import Shape, component
 from .partition import Partition
 
 Voxel = tuple[int, int]
@@ -203,7 +203,7 @@ def partition_around(shape: Shape, voxels) -> Partition:
         if cell in label:
             continue
         name = _letter(len(set(label.values())))
-        for member in _component(cell, set(shape.voxels) - chosen):
+        for member in component(cell, set(shape.voxels) - chosen):
             label[member] = name
     return Partition(shape, tuple(label[v] for v in shape.voxels))
 
@@ -214,18 +214,6 @@ def _letter(i: int) -> str:
     if i >= len(letters):
         raise bad("partition", i + 1, f"more than {len(letters)} modules")
     return letters[i]
-
-
-def _component(start: Voxel, cells: set[Voxel]) -> set[Voxel]:
-    seen = {start}
-    stack = [start]
-    while stack:
-        x, y = stack.pop()
-        for cell in ((x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)):
-            if cell in cells and cell not in seen:
-                seen.add(cell)
-                stack.append(cell)
-    return seen
 
 
 def discover(genome: Genome, b_min: int = 2, b_max: int = 5) -> Partition:

@@ -37,7 +37,7 @@ from pathlib import Path
 from .._io import write_atomic
 from ..brain.genome import Edge, Genome, Node
 from ..errors import SomiteError, bad
-from ..sim.body import SENSOR_KINDS, Body, Shape, is_connected
+from ..sim.body import SENSOR_KINDS, Body, Shape, component, is_connected
 from .module import Graft, Module, graft
 
 FORMAT = "somite-module"
@@ -366,25 +366,13 @@ def _check_connected(placements: Sequence[Placement], owner: dict) -> None:
     if is_connected(set(owner)):
         return
     start = next(cell for cell, i in owner.items() if i == 0)
-    reached = _reach(start, set(owner))
+    reached = component(start, set(owner))
     i = min(j for cell, j in owner.items() if cell not in reached)
     raise bad(
         f"place[{i}]", placements[i].text,
         "does not touch place[0] (directly or through other modules); "
         "the placed modules must form one 4-connected body",
     )
-
-
-def _reach(start, cells: set) -> set:
-    seen = {start}
-    stack = [start]
-    while stack:
-        x, y = stack.pop()
-        for cell in ((x + 1, y), (x - 1, y), (x, y + 1), (x, y - 1)):
-            if cell in cells and cell not in seen:
-                seen.add(cell)
-                stack.append(cell)
-    return seen
 
 
 def _build(placements: Sequence[Placement], owner: dict, offsets: list) -> Genome:

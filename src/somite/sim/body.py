@@ -112,11 +112,8 @@ class Shape:
         return len(self.voxels)
 
 
-def is_connected(cells: set[tuple[int, int]]) -> bool:
-    """Whether ``cells`` is non-empty and 4-connected."""
-    if not cells:
-        return False
-    start = next(iter(cells))
+def component(start: tuple[int, int], cells: set[tuple[int, int]]) -> set[tuple[int, int]]:
+    """The cells of ``cells`` 4-connected to ``start`` (a flood fill)."""
     seen = {start}
     stack = [start]
     while stack:
@@ -125,7 +122,12 @@ def is_connected(cells: set[tuple[int, int]]) -> bool:
             if n in cells and n not in seen:
                 seen.add(n)
                 stack.append(n)
-    return len(seen) == len(cells)
+    return seen
+
+
+def is_connected(cells: set[tuple[int, int]]) -> bool:
+    """Whether ``cells`` is non-empty and 4-connected."""
+    return bool(cells) and len(component(next(iter(cells)), cells)) == len(cells)
 
 
 def paper_sensors(shape: Shape) -> tuple[tuple[str, ...], ...]:

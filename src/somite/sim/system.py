@@ -134,7 +134,8 @@ def _readings(body: Body) -> tuple[list[int], list[int]]:
     return codes, voxels
 
 
-def _pad(rows: Sequence[np.ndarray], tail: tuple, dtype, fill=0) -> np.ndarray:
+def pad(rows: Sequence[np.ndarray], tail: tuple, dtype, fill=0) -> np.ndarray:
+    """Stack rows of different lengths into (len(rows), longest, *tail), filling with ``fill``."""
     longest = max(1, max((len(r) for r in rows), default=0))
     out = np.full((len(rows), longest) + tail, fill, dtype=dtype)
     for i, row in enumerate(rows):
@@ -167,26 +168,26 @@ def compile_system(
     readings = [_readings(body) for body in bodies]
     return System(
         n_points=np.array([len(g.points) for g in geoms], dtype=np.int32),
-        mass=_pad([g.mass for g in geoms], (), np.float64, 1.0),
-        initial_pos=_pad(positions, (2,), np.float64),
+        mass=pad([g.mass for g in geoms], (), np.float64, 1.0),
+        initial_pos=pad(positions, (2,), np.float64),
         n_springs=np.array([len(g.springs) for g in geoms], dtype=np.int32),
-        spring_ends=_pad([g.springs for g in geoms], (2,), np.int32),
-        spring_owners=_pad([g.owners for g in geoms], (2,), np.int32, -1),
-        spring_rest=_pad([g.rest for g in geoms], (), np.float64, 1.0),
+        spring_ends=pad([g.springs for g in geoms], (2,), np.int32),
+        spring_owners=pad([g.owners for g in geoms], (2,), np.int32, -1),
+        spring_rest=pad([g.rest for g in geoms], (), np.float64, 1.0),
         n_voxels=np.array([len(g.corners) for g in geoms], dtype=np.int32),
-        voxel_corners=_pad([g.corners for g in geoms], (4,), np.int32),
-        voxel_x=_pad([np.array([x for x, _ in b.shape.voxels]) for b in bodies], (), np.float64),
+        voxel_corners=pad([g.corners for g in geoms], (4,), np.int32),
+        voxel_x=pad([np.array([x for x, _ in b.shape.voxels]) for b in bodies], (), np.float64),
         n_boundary=np.array([len(g.boundary) for g in geoms], dtype=np.int32),
-        boundary=_pad([g.boundary for g in geoms], (2,), np.int32),
+        boundary=pad([g.boundary for g in geoms], (2,), np.int32),
         n_readings=np.array([len(c) for c, _ in readings], dtype=np.int32),
-        reading_code=_pad([np.array(c, dtype=np.int32) for c, _ in readings], (), np.int32),
-        reading_voxel=_pad([np.array(v, dtype=np.int32) for _, v in readings], (), np.int32),
+        reading_code=pad([np.array(c, dtype=np.int32) for c, _ in readings], (), np.int32),
+        reading_voxel=pad([np.array(v, dtype=np.int32) for _, v in readings], (), np.int32),
         terrain_of=terrain_of,
         terrain_n=np.array([len(t.xs) for t in terrain_list], dtype=np.int32),
-        terrain_x=_pad([t.xs for t in terrain_list], (), np.float64),
-        terrain_y=_pad([t.ys for t in terrain_list], (), np.float64),
-        terrain_nx=_pad([_normals(t)[0] for t in terrain_list], (), np.float64),
-        terrain_ny=_pad([_normals(t)[1] for t in terrain_list], (), np.float64),
+        terrain_x=pad([t.xs for t in terrain_list], (), np.float64),
+        terrain_y=pad([t.ys for t in terrain_list], (), np.float64),
+        terrain_nx=pad([_normals(t)[0] for t in terrain_list], (), np.float64),
+        terrain_ny=pad([_normals(t)[1] for t in terrain_list], (), np.float64),
     )
 
 

@@ -17,7 +17,7 @@ from ..brain.controllers import GraphArrays, Sine, Table, Zero
 from ..errors import bad
 from ..sim.body import Body
 from ..sim.config import CONTROL_HZ, SimConfig, pack_params
-from ..sim.system import System, compile_system
+from ..sim.system import System, compile_system, pad
 from ..sim.terrain import Terrain
 from .episode import (
     GRAPH,
@@ -52,15 +52,6 @@ class Outcome:
             "max_corner_speed": self.max_speed,
             "finite": self.finite,
         }
-
-
-def _pad(rows, tail, dtype, fill=0):
-    longest = max(1, max((len(r) for r in rows), default=0))
-    out = np.full((len(rows), longest) + tail, fill, dtype=dtype)
-    for i, row in enumerate(rows):
-        if len(row):
-            out[i, : len(row)] = row
-    return out
 
 
 def compile_controllers(controllers: Sequence[Controller], n_voxels: Sequence[int]) -> Controllers:
@@ -107,13 +98,13 @@ def compile_controllers(controllers: Sequence[Controller], n_voxels: Sequence[in
         table=table_arr,
         table_period=np.array([max(1, t.shape[0]) for t in tables], dtype=np.int32),
         n_nodes=np.array([g.n_nodes if g else 0 for g in graphs], dtype=np.int32),
-        node_kind=_pad(column("node_kind", empty_i), (), np.int32),
-        node_ref=_pad(column("node_ref", empty_i), (), np.int32),
+        node_kind=pad(column("node_kind", empty_i), (), np.int32),
+        node_ref=pad(column("node_ref", empty_i), (), np.int32),
         n_edges=np.array([g.n_edges if g else 0 for g in graphs], dtype=np.int32),
-        edge_src=_pad(column("src", empty_i), (), np.int32),
-        edge_dst=_pad(column("dst", empty_i), (), np.int32),
-        edge_weight=_pad(column("weight", empty_f), (), np.float64),
-        edge_bias=_pad(column("bias", empty_f), (), np.float64),
+        edge_src=pad(column("src", empty_i), (), np.int32),
+        edge_dst=pad(column("dst", empty_i), (), np.int32),
+        edge_weight=pad(column("weight", empty_f), (), np.float64),
+        edge_bias=pad(column("bias", empty_f), (), np.float64),
     )
 
 

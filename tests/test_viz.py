@@ -28,16 +28,10 @@ from somite.modules.partition import Partition
 from somite.sim.body import Body
 from somite.sim.config import VOXEL_SIDE, preset
 from somite.viz.brain import bilinear, brain_drawing, draw_brain
+from somite.viz.frame import GRID, SKY, area_colour, frame_steps, render_frame
 from somite.viz.plots import curve, plot_runs, stats_path
-from somite.viz.render import (
-    GRID,
-    SKY,
-    area_colour,
-    frame_steps,
-    lidar_segments,
-    render_frame,
-    render_strip,
-)
+from somite.viz.recording import lidar_segments
+from somite.viz.strip import render_strip
 from somite.viz.video import record_episode, render_episode, write_video
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "somite"

@@ -6,7 +6,7 @@ import argparse
 
 from ..modules.partition import Partition
 from ..viz.brain import BRAIN_FORMATS, draw_brain
-from ..viz.render import check_output
+from ..viz.output import check_output
 from .common import load_genome
 
 HELP = "Draw a genome's graph on its body (PNG or SVG), optionally coloured by modules."

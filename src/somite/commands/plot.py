@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from ..viz.output import check_output
 from ..viz.plots import KINDS, PLOT_FORMATS, plot_runs, stats_path
-from ..viz.render import check_output
 
 HELP = "Plot best v_x and |G| over generations and final-v_x boxplots with Mann-Whitney p."
 

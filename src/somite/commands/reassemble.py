@@ -19,8 +19,9 @@ from ..brain.genome import Genome
 from ..errors import bad
 from ..modules.discovery import partition_from_spec
 from ..modules.library import write_atomic
-from ..modules.module import Take, cut, reassemble
+from ..modules.module import cut
 from ..modules.partition import Partition
+from ..modules.reassembly import Take, reassemble
 from ..sim.body import Body, Shape
 from .common import add_simulation_options, simulation_config
 
@@ -92,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     result = reassemble(body, receiver, takes)
     report = _report(args, donors, partitions, result, which)
     if args.validation:
-        from ..modules.module import transferability
+        from ..modules.transfer import transferability
         from ..tasks.validation import validation_terrains
 
         measured = transferability(

@@ -10,7 +10,8 @@ from pathlib import Path
 from ..errors import bad
 from ..sim.config import CONTROL_HZ, PRESETS, SimConfig, preset
 from ..sim.terrain import TERRAIN_HELP
-from ..viz.render import check_output, frame_steps
+from ..viz.frame import frame_steps
+from ..viz.output import check_output
 from ..viz.video import (
     DEFAULT_STRIP_FRAMES,
     OUTPUT_FORMATS,

@@ -40,8 +40,8 @@ from ..evolution.ea import (
     statistics,
 )
 from ..modules.partition import Partition
-from .logfile import LOG_COLUMNS
 from ..sim.body import Body
+from .logfile import LOG_COLUMNS
 
 RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json")
 CHECKPOINT_FORMAT = "somite-checkpoint"

@@ -38,7 +38,8 @@ from .._io import write_atomic
 from ..brain.genome import Edge, Genome, Node
 from ..errors import SomiteError, bad
 from ..sim.body import SENSOR_KINDS, Body, Shape, component, is_connected
-from .module import Graft, Module, graft
+from .graft import Graft, graft
+from .module import Module
 
 FORMAT = "somite-module"
 VERSION = 1

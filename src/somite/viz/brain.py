@@ -21,7 +21,10 @@ import numpy as np
 from ..brain.genome import Genome, body_table
 from ..errors import bad
 from ..modules.partition import Partition
-from .render import Overlay, Recording, View, atomic_output, check_output
+from .camera import View
+from .frame import Overlay
+from .output import atomic_output, check_output
+from .recording import Recording
 
 SENSOR_ROWS = (0.13, 0.29)
 SENSORS_PER_ROW = 4
@@ -333,7 +336,7 @@ def save_figure(figure, out_path: str | os.PathLike, dpi: int) -> Path:
 
 
 def brain_overlay(genome: Genome) -> Overlay:
-    """An overlay for :func:`somite.viz.render.render_frame` drawing ``genome`` on the deformed
+    """An overlay for :func:`somite.viz.frame.render_frame` drawing ``genome`` on the deformed
     body: edges (white halo, colour by sign, width by |weight|), then nodes (sensor: white
     circle, hidden: grey square, actuator: black diamond)."""
     layout = local_layout(genome)

@@ -28,7 +28,7 @@ from ..analysis.stats import (
     to_json,
 )
 from ..errors import bad
-from .render import atomic_output, check_output
+from .output import atomic_output, check_output
 
 PLOT_FORMATS = (".png", ".svg", ".pdf")
 KINDS = ("curves", "box", "both")

@@ -24,15 +24,10 @@ from ..sim.config import SimConfig, preset
 from ..sim.terrain import Terrain, parse_terrain
 from ..tasks.locomotion import simulate
 from .brain import brain_overlay
-from .render import (
-    AREA_RAMP,
-    Overlay,
-    Recording,
-    atomic_output,
-    check_output,
-    render_frames,
-    render_strip,
-)
+from .frame import AREA_RAMP, Overlay, render_frames
+from .output import atomic_output, check_output
+from .recording import Recording
+from .strip import render_strip
 
 VIDEO_FORMATS = (".mp4", ".gif")
 STRIP_FORMATS = (".png",)

@@ -86,20 +86,13 @@ class EvolutionConfig:
         self.sim()  # validates duration and transient
 
     def operators(self) -> OperatorConfig:
-        """The operator configuration; the weights-only ablation zeroes every other operator."""
+        """The operator configuration (the fields of the same names); the weights-only
+        ablation keeps weight mutation alone."""
+        values = {f.name: getattr(self, f.name) for f in fields(OperatorConfig)}
         if self.weights_only:
-            return OperatorConfig(1.0, 0.0, 0.0, 0.0, 0.0, self.sigma, self.omega,
-                                  self.node_placement)
-        return OperatorConfig(
-            self.p_mutate_edge,
-            self.p_add_edge,
-            self.p_remove_edge,
-            self.p_add_node,
-            self.p_remove_node,
-            self.sigma,
-            self.omega,
-            self.node_placement,
-        )
+            values.update(p_mutate_edge=1.0, p_add_edge=0.0, p_remove_edge=0.0, p_add_node=0.0,
+                          p_remove_node=0.0)
+        return OperatorConfig(**values)
 
     def n_seeded_mutants(self) -> int:
         return self.population - (self.seeded_mutants == "population-1")

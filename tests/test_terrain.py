@@ -53,7 +53,8 @@ def test_slopes_have_their_angle():
     assert math.isclose((down.ys[2] - down.ys[1]) / (down.xs[2] - down.xs[1]), -slope)
 
 
-@pytest.mark.parametrize("name", ["bumpy", "hilly-1-10", "hilly-a-10-0", "uphill-75", ""])
+@pytest.mark.parametrize("name", ["bumpy", "hilly-1-10", "hilly-a-10-0", "uphill-75", "",
+                                  "hilly-1-10-9223372036854775808", "hilly-1-0-3"])
 def test_bad_terrain_names(name):
     with pytest.raises(SomiteError, match="^terrain="):
         parse_terrain(name)

@@ -221,8 +221,10 @@ def parse_terrain(text: str) -> Terrain:
             height, width, seed = numbers
             if width <= 0:
                 raise bad("terrain", text, "the step width W must be positive")
+            if int(match.group(3)) >= 2**63:
+                raise bad("terrain", text, "SEED must be below 2**63 (a Java long)")
             build = hilly if kind == "hilly" else steppy
-            return build(height, width, int(seed))
+            return build(height, width, int(match.group(3)))
         degrees = numbers[0]
         if not degrees < 60:
             raise bad("terrain", text, "slopes must be under 60 degrees")

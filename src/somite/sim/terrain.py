@@ -218,7 +218,7 @@ def parse_terrain(text: str) -> Terrain:
             continue
         numbers = [float(g) for g in match.groups()]
         if kind in ("hilly", "steppy"):
-            height, width, seed = numbers
+            height, width, _ = numbers
             if width <= 0:
                 raise bad("terrain", text, "the step width W must be positive")
             if int(match.group(3)) >= 2**63:

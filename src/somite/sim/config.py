@@ -39,8 +39,11 @@ class SimConfig:
     substeps: int = 8
     spring_hz: float = 8.0
     damping_ratio: float = 0.3
+    diagonal_stiffness: float = 1.0
     area_delta: float = 0.225
-    min_length_ratio: float = 0.5
+    min_side_ratio: float = 0.8
+    min_diagonal_ratio: float = 0.5
+    min_area_ratio: float = 0.3
     gravity: float = 9.8
     drag: float = 0.1
     friction: float = 1.4
@@ -65,7 +68,7 @@ class SimConfig:
         if self.transient < 0:
             raise bad("transient", self.transient, "must be zero or positive")
         _positive_int(self, "substeps", "touch_window", "velocity_window")
-        for name in ("spring_hz", "lidar_range", "velocity_max", "gravity"):
+        for name in ("spring_hz", "lidar_range", "velocity_max", "gravity", "diagonal_stiffness"):
             if not getattr(self, name) > 0:
                 raise bad(name, getattr(self, name), "must be positive")
         non_negative = (
@@ -76,8 +79,9 @@ class SimConfig:
                 raise bad(name, getattr(self, name), "must be zero or positive")
         if not 0 <= self.area_delta < 1:
             raise bad("area_delta", self.area_delta, "must be in [0, 1)")
-        if not 0 < self.min_length_ratio < 1:
-            raise bad("min_length_ratio", self.min_length_ratio, "must be in (0, 1)")
+        for name in ("min_side_ratio", "min_diagonal_ratio", "min_area_ratio"):
+            if not 0 < getattr(self, name) < 1:
+                raise bad(name, getattr(self, name), "must be in (0, 1)")
         if len(self.lidar_angles) != 5:
             raise bad("lidar_angles", self.lidar_angles, "a lidar has exactly 5 rays")
         for name, allowed in (
@@ -151,7 +155,10 @@ def preset(name: str, **options) -> SimConfig:
     P_FRICTION,
     P_CONTRACT,
     P_EXPAND,
-    P_MIN_LENGTH,
+    P_DIAGONAL,
+    P_MIN_SIDE,
+    P_MIN_DIAGONAL,
+    P_MIN_AREA,
     P_PEAK_DEPTH,
     P_NOISE,
     P_LIDAR_RANGE,
@@ -161,8 +168,9 @@ def preset(name: str, **options) -> SimConfig:
     P_VELOCITY_FRAME,
     P_VELOCITY_MAX,
     P_HIDDEN_SIGMOID,
+    P_TRANSIENT_STEPS,
     P_LIDAR0,
-) = range(20)
+) = range(24)
 N_PARAMS = P_LIDAR0 + 5
 
 
@@ -180,7 +188,10 @@ def pack_params(config: SimConfig) -> np.ndarray:
     params[P_FRICTION] = config.friction
     params[P_CONTRACT] = math.sqrt(1 - config.area_delta)
     params[P_EXPAND] = math.sqrt(1 + config.area_delta)
-    params[P_MIN_LENGTH] = config.min_length_ratio
+    params[P_DIAGONAL] = config.diagonal_stiffness
+    params[P_MIN_SIDE] = config.min_side_ratio
+    params[P_MIN_DIAGONAL] = config.min_diagonal_ratio
+    params[P_MIN_AREA] = config.min_area_ratio
     params[P_PEAK_DEPTH] = config.max_peak_depth
     params[P_NOISE] = config.noise_sigma
     params[P_LIDAR_RANGE] = config.lidar_range
@@ -190,6 +201,7 @@ def pack_params(config: SimConfig) -> np.ndarray:
     params[P_VELOCITY_FRAME] = FRAMES.index(config.velocity_frame)
     params[P_VELOCITY_MAX] = config.velocity_max
     params[P_HIDDEN_SIGMOID] = ACTIVATIONS.index(config.hidden_activation)
+    params[P_TRANSIENT_STEPS] = config.transient_steps
     params[P_LIDAR0 : P_LIDAR0 + 5] = config.lidar_angles
     return params
 

@@ -183,6 +183,14 @@ def segment_near(xs, n, x, guess) -> int:
     return i
 
 
+@njit
+def ground_height(xs, ys, n, x, guess) -> float:
+    """Height [m] of the terrain at x (``guess``: a segment index near x)."""
+    i = segment_near(xs, n, x, guess)
+    t = (x - xs[i]) / (xs[i + 1] - xs[i])
+    return ys[i] + t * (ys[i + 1] - ys[i])
+
+
 @njit(inline="always")
 def ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n, first, hi_x,
                    params):
@@ -246,12 +254,19 @@ def ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n, fi
 
 
 @njit(inline="always")
-def peak_contact(n_boundary, boundary, pos, vel, xs, ys, n, first, hi_x, lo_y, params):
-    """Keep terrain vertices from poking deeper than ``max_peak_depth`` into an outer side.
+def side_contact(n_boundary, boundary, pos, vel, contact, xs, ys, n, first, hi_x, lo_y,
+                 params):
+    """Keep terrain vertices out of the robot's outer sides; Coulomb friction, no bounce.
 
-    Corners alone would let a sharp hilltop pass between two corners 3 m apart.
+    Together with :func:`ground_contact` (corners against terrain segments) this makes the
+    robot's whole outline a solid surface: it rests on a crest with a side, not only with a
+    point, as the original's rigid corner squares do. A vertex may sink ``max_peak_depth``
+    into a side before it is pushed out (0: a solid side). The push and the impulses at the
+    contact point (a fraction ``lam`` along side a -> b) are shared by a and b in proportion to
+    how much each moves that point.
     """
     limit = params[P_PEAK_DEPTH]
+    mu = params[P_FRICTION]
     for i in range(first + 1, n - 1):
         tx = xs[i]
         if tx > hi_x:
@@ -269,37 +284,104 @@ def peak_contact(n_boundary, boundary, pos, vel, xs, ys, n, first, hi_x, lo_y, p
             if lam <= 0.0 or lam >= 1.0:
                 continue
             inv = 1.0 / math.sqrt(length2)
-            onx = ey * inv
-            ony = -ex * inv
-            depth = -((tx - pos[a, 0]) * onx + (ty - pos[a, 1]) * ony)
-            if depth <= limit or depth >= MAX_SIDE_DEPTH:
+            nx = ey * inv  # the side's outward normal (the robot is on its left)
+            ny = -ex * inv
+            depth = -((tx - pos[a, 0]) * nx + (ty - pos[a, 1]) * ny)
+            if depth <= limit - CONTACT_TOLERANCE or depth >= MAX_SIDE_DEPTH:
+                continue
+            contact[a] = True
+            contact[b] = True
+            if depth <= limit:
                 continue
             wa = 1.0 - lam
             wb = lam
-            scale = (depth - limit) / (wa * wa + wb * wb)
-            pos[a, 0] -= onx * scale * wa
-            pos[a, 1] -= ony * scale * wa
-            pos[b, 0] -= onx * scale * wb
-            pos[b, 1] -= ony * scale * wb
-            for p in (a, b):
-                vn = vel[p, 0] * onx + vel[p, 1] * ony
-                if vn > 0.0:
-                    vel[p, 0] -= vn * onx
-                    vel[p, 1] -= vn * ony
+            share = 1.0 / (wa * wa + wb * wb)
+            push = (depth - limit) * share
+            pos[a, 0] -= nx * push * wa
+            pos[a, 1] -= ny * push * wa
+            pos[b, 0] -= nx * push * wb
+            pos[b, 1] -= ny * push * wb
+            # The side's velocity at the contact point, along the normal into the vertex (> 0
+            # closes) and along the side.
+            vx = wa * vel[a, 0] + wb * vel[b, 0]
+            vy = wa * vel[a, 1] + wb * vel[b, 1]
+            vn = vx * nx + vy * ny
+            if vn <= 0.0:
+                continue
+            vt = (vx * ex + vy * ey) * inv
+            cut = min(abs(vt), mu * vn)
+            if vt < 0.0:
+                cut = -cut
+            jx = (vn * nx + cut * ex * inv) * share
+            jy = (vn * ny + cut * ey * inv) * share
+            vel[a, 0] -= jx * wa
+            vel[a, 1] -= jy * wa
+            vel[b, 0] -= jx * wb
+            vel[b, 1] -= jy * wb
 
 
 @njit(inline="always")
-def substep(n_points, n_springs, n_boundary, ends, strength, rest, min_length, mass, inv_mass,
-            boundary, pos, vel, force, work, contact, segment, xs, ys, nxs, nys, n_terrain,
-            params):
-    """Advance one robot by one physics substep. ``work`` is a tuple of 6 (S,) scratch arrays;
-    ``segment`` (P + 1,) remembers the terrain segment under each corner and, last, under the
-    robot's leftmost corner."""
-    integrate(n_points, n_springs, ends, strength, rest, min_length, mass, inv_mass, pos, vel,
-              force, work[0], work[1], work[2], work[3], work[4], work[5], params)
-    lo_x, hi_x, lo_y = extent(n_points, pos)
-    first = segment_near(xs, n_terrain, lo_x, segment[n_points])
-    segment[n_points] = first
-    peak_contact(n_boundary, boundary, pos, vel, xs, ys, n_terrain, first, hi_x, lo_y, params)
-    ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n_terrain, first,
-                   hi_x, params)
+def keep_orientation(n_voxels, corners, min_area, inv_mass, pos, vel):
+    """No voxel turns inside out: each voxel's signed area stays at least ``min_area``.
+
+    Length limits cannot do it (a mirrored voxel has the same side and diagonal lengths).
+    Where a voxel is smaller, its corners move along the area's gradient, weighted by inverse
+    mass, to restore ``min_area``, and the corners' shrinking rate along it is removed.
+    """
+    for v in range(n_voxels):
+        sw = corners[v, 0]
+        se = corners[v, 1]
+        ne = corners[v, 2]
+        nw = corners[v, 3]
+        # Twice the signed area: the cross product of the diagonals.
+        d1x = pos[ne, 0] - pos[sw, 0]
+        d1y = pos[ne, 1] - pos[sw, 1]
+        d2x = pos[nw, 0] - pos[se, 0]
+        d2y = pos[nw, 1] - pos[se, 1]
+        area = 0.5 * (d1x * d2y - d1y * d2x)
+        if area >= min_area:
+            continue
+        # dA/dp for each corner: half the perpendicular of the other diagonal.
+        g_sw_x, g_sw_y = -0.5 * d2y, 0.5 * d2x
+        g_ne_x, g_ne_y = 0.5 * d2y, -0.5 * d2x
+        g_se_x, g_se_y = 0.5 * d1y, -0.5 * d1x
+        g_nw_x, g_nw_y = -0.5 * d1y, 0.5 * d1x
+        w_sw = inv_mass[sw]
+        w_se = inv_mass[se]
+        w_ne = inv_mass[ne]
+        w_nw = inv_mass[nw]
+        norm = (w_sw * (g_sw_x * g_sw_x + g_sw_y * g_sw_y)
+                + w_ne * (g_ne_x * g_ne_x + g_ne_y * g_ne_y)
+                + w_se * (g_se_x * g_se_x + g_se_y * g_se_y)
+                + w_nw * (g_nw_x * g_nw_x + g_nw_y * g_nw_y))
+        if norm < 1e-12:
+            continue
+        step = (min_area - area) / norm
+        rate = (g_sw_x * vel[sw, 0] + g_sw_y * vel[sw, 1] + g_ne_x * vel[ne, 0]
+                + g_ne_y * vel[ne, 1] + g_se_x * vel[se, 0] + g_se_y * vel[se, 1]
+                + g_nw_x * vel[nw, 0] + g_nw_y * vel[nw, 1])
+        stop = max(0.0, -rate) / norm
+        for p, gx, gy, w in ((sw, g_sw_x, g_sw_y, w_sw), (se, g_se_x, g_se_y, w_se),
+                             (ne, g_ne_x, g_ne_y, w_ne), (nw, g_nw_x, g_nw_y, w_nw)):
+            pos[p, 0] += step * w * gx
+            pos[p, 1] += step * w * gy
+            vel[p, 0] += stop * w * gx
+            vel[p, 1] += stop * w * gy
+
+
+@njit(inline="always")
+def substep(robot, ground, scratch, pos, vel, params):
+    """Advance one robot by one physics substep: springs, gravity and drag; the voxels'
+    length and orientation limits; contact of the outline with the terrain."""
+    integrate(robot.n_points, robot.n_springs, robot.ends, robot.strength, scratch.rest,
+              robot.min_length, robot.mass, robot.inv_mass, pos, vel, scratch.force,
+              scratch.dx, scratch.dy, scratch.dvx, scratch.dvy, scratch.fx, scratch.fy, params)
+    keep_orientation(robot.n_voxels, robot.corners, robot.min_area, robot.inv_mass, pos, vel)
+    lo_x, hi_x, lo_y = extent(robot.n_points, pos)
+    segment = scratch.segment
+    first = segment_near(ground.xs, ground.n, lo_x, segment[robot.n_points])
+    segment[robot.n_points] = first
+    ground_contact(robot.n_points, pos, vel, scratch.contact, segment, ground.xs, ground.ys,
+                   ground.nx, ground.ny, ground.n, first, hi_x, params)
+    side_contact(robot.n_boundary, robot.boundary, pos, vel, scratch.contact, ground.xs,
+                 ground.ys, ground.n, first, hi_x, lo_y, params)

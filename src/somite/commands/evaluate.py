@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import bad
 from ..sim.terrain import parse_terrain
-from ..tasks.validation import evaluate, validation_terrains
+from ..tasks.validation import evaluate_outcomes, validation_terrains
 from .common import (
     add_simulation_options,
     load_genome,
@@ -38,17 +38,37 @@ def run(args: argparse.Namespace) -> int:
             raise bad("validation", args.validation, "must be at least 1")
         terrains = validation_terrains(args.validation)
     config = simulation_config(args)
-    velocities = evaluate([genome], terrains, config, args.seed)[0]
+    outcomes = evaluate_outcomes([genome], terrains, config, args.seed)[0]
+    velocities = np.array([o.velocity for o in outcomes])
     report = {
         "genome": args.genome,
-        "terrains": {t.name: float(v) for t, v in zip(terrains, velocities)},
+        "terrains": {t.name: o.velocity for t, o in zip(terrains, outcomes)},
         "mean_velocity": float(np.nanmean(velocities)) if np.isfinite(velocities).any() else None,
         "non_finite": int(np.isnan(velocities).sum()),
+        # Exploits show in numbers: an inverted voxel, a robot that moves on its side, jumps.
+        "diagnostics": {
+            t.name: {key: getattr(o, key) for key in DIAGNOSTICS}
+            for t, o in zip(terrains, outcomes)
+        },
     }
+    for key, pick in DIAGNOSTICS.items():
+        values = [getattr(o, key) for o in outcomes]
+        report[key] = float(pick(values)) if np.isfinite(values).any() else None
     if args.json:
         print_json(report)
     else:
-        for name, value in report["terrains"].items():
-            print(f"{name:>22}: {value:8.4f} m/s")
+        for t, o in zip(terrains, outcomes):
+            print(f"{t.name:>22}: {o.velocity:8.4f} m/s   tilt {o.max_tilt_deg:5.1f} deg,"
+                  f" on its side {o.flipped_fraction:6.1%}, area >= {o.min_signed_area_ratio:.2f},"
+                  f" height {o.max_height:.2f} m")
         print(f"{'mean':>22}: {report['mean_velocity']:8.4f} m/s")
     return 0
+
+
+DIAGNOSTICS = {
+    "min_signed_area_ratio": np.nanmin,
+    "max_tilt_deg": np.nanmax,
+    "flipped_fraction": np.nanmax,
+    "max_height": np.nanmax,
+}
+"""The outcome's diagnostics, and how the report sums them up over the terrains."""

@@ -46,5 +46,5 @@ def run(args: argparse.Namespace) -> int:
                 value = f"{value:.4f}"
             elif isinstance(value, list):
                 value = ", ".join(f"{v:.3f}" for v in value)
-            print(f"{key:>17}: {value}")
+            print(f"{key:>21}: {value}")
     return 0 if outcome.finite else 1

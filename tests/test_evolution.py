@@ -18,7 +18,8 @@ import pytest
 from somite.brain.genome import Genome
 from somite.cli import main
 from somite.errors import SomiteError
-from somite.evolution.config import EvolutionConfig, resolve
+from somite.evolution.config import GAConfig
+from somite.experiments.config import resolve
 from somite.evolution.ea import tournament, truncate
 from somite.experiments.runner import LOG_COLUMNS, evolve
 
@@ -119,7 +120,7 @@ def test_toml_configuration(tmp_path):
         ("populaton = 6\n", "config.populaton=6: unknown option"),
         ('population = "many"\n', "population='many': must be of type int"),
         ("omega = true\n", "omega=True: must be of type float"),
-        ("omega = -1.0\n", "omega=-1.0: must be positive"),
+        ("omega = -1.0\n", "omega=-1.0: must be > 0"),
         ("generations = [\n", "not valid TOML"),
     ],
 )
@@ -162,7 +163,7 @@ def test_existing_run_needs_resume_or_force(tmp_path, capsys):
 
 def test_config_rejects_bad_values():
     with pytest.raises(SomiteError, match="^tournament=0"):
-        EvolutionConfig(tournament=0)
+        GAConfig(tournament=0)
     with pytest.raises(SomiteError, match="^preset='fast'"):
         resolve({"preset": "fast"})
     with pytest.raises(SomiteError, match="^duration=nan"):

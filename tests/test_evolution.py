@@ -19,9 +19,12 @@ from somite.brain.genome import Genome
 from somite.cli import main
 from somite.errors import SomiteError
 from somite.evolution.config import GAConfig
+from somite.evolution.ea import GraphEA, tournament, truncate
 from somite.experiments.config import resolve
-from somite.evolution.ea import tournament, truncate
 from somite.experiments.runner import LOG_COLUMNS, evolve
+from somite.modules.partition import Partition
+from somite.sim.body import Body
+from somite.tasks.task import Locomotion
 
 SMALL = {"shape": "worm", "population": 8, "generations": 4, "duration": 3.0, "seed": 3}
 
@@ -69,6 +72,24 @@ def test_weights_only_never_changes_topology(tmp_path):
     state = evolve(resolve({**SMALL, "weights_only": True}), tmp_path / "run")
     assert {(g.n_nodes, g.n_edges) for g in state.population.genomes} == {(52, 40)}
     assert {r["best_operator"] for r in rows(tmp_path / "run")} <= {"init", "mutate_edge"}
+
+
+def test_omega_one_run_is_the_same_with_and_without_a_partition():
+    """omega = 1 is neutral: a library caller giving the EA a partition gets the run, log and
+    genomes (hidden nodes' voxels included) of a run without one."""
+    body = Body.build("worm")
+    task = Locomotion(duration=3.0)
+    runs = []
+    for partition in (None, Partition.preset("worm-halves", body.shape)):
+        ea = GraphEA(body, population=8, seed=3, omega=1.0, p_add_node=0.6)
+        ea.partition = partition
+        for _ in range(4):
+            genomes = ea.ask()
+            ea.tell(genomes, task.evaluate(genomes, rng=ea.rng_evaluation))
+        log = [{k: v for k, v in row.items() if k != "elapsed_seconds"} for row in ea.log]
+        runs.append((json.dumps(log), [g.to_dict() for g in ea.population.genomes]))
+    assert any(n.kind == "hidden" for g in ea.population.genomes for n in g.nodes)
+    assert runs[0] == runs[1]
 
 
 def test_nan_counts_as_the_worst():

@@ -130,8 +130,9 @@ def test_one_nan_rule_for_mean_velocity_and_rho(tmp_path, monkeypatch):
     body = somite.Body.build("worm")
     evolve(resolve({"population": 4, "generations": 1, "duration": 2.0, "validate_every": 0}),
            tmp_path / "run", start=initial_genome(body, np.random.default_rng(0)))
+    one_nan = [1.0, math.nan]
     monkeypatch.setattr(reoptimize_module, "evaluate",
-                        lambda genomes, terrains, config: np.array([[1.0, math.nan]] * len(genomes)))
+                        lambda genomes, terrains, config: np.array([one_nan] * len(genomes)))
     rows = reoptimize_module.transfer_curve(tmp_path / "run", [1.0, 2.0], None, 2)
     assert all(math.isnan(r["validation_velocity"]) and math.isnan(r["rho"]) for r in rows)
 

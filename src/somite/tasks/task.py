@@ -23,7 +23,8 @@ from ..sim.terrain import Terrain, parse_terrain
 from .distributions import parse_distribution
 from .locomotion import Controller, Outcome
 from .locomotion import simulate as simulate_batch
-from .validation import evaluate as evaluate_on, validation_terrains
+from .validation import evaluate as evaluate_on
+from .validation import validation_terrains
 from .velocity import mean_velocity
 
 

@@ -214,8 +214,9 @@ class GraphEA:
     @property
     def best_fitness(self) -> float:
         """Its fitness, v_x in m/s, as evaluated in training (see ``validation_velocity``)."""
-        return float(self.population.fitness[self.population.best()]) if self.population else (
-            math.nan)
+        if self.population is None:
+            return math.nan
+        return float(self.population.fitness[self.population.best()])
 
     def _offspring(self) -> tuple[list[Genome], list[str]]:
         rng, config = self.rng_variation, self.config

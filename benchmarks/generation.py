@@ -54,7 +54,7 @@ def main() -> dict:
                 mark = now
 
             children = []
-            for _ in range(config.population):
+            for _ in range(config.ga.population):
                 parent = population.genomes[tournament(population.fitness, 5, rng)]
                 children.append(mutate(parent, rng, operators)[0])
             lap("select_and_mutate")
@@ -71,7 +71,7 @@ def main() -> dict:
             fitness = np.array([o.velocity for o in outcomes(trace, sim)])
             lap("outcomes")
             merged = np.concatenate([population.fitness, fitness])
-            kept = truncate(merged, config.population, rng)
+            kept = truncate(merged, config.ga.population, rng)
             genomes = population.genomes + children
             origins = population.origins + ["mutate"] * len(children)
             population = type(population)([genomes[i] for i in kept], merged[kept],

@@ -26,7 +26,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from ..brain.genome import ACTUATOR, HIDDEN, SENSOR, Edge, Genome, Node, body_table, next_id
+from ..brain.genome import Edge, Genome, Node, body_table, next_id
+from ..brain.kinds import ACTUATOR, HIDDEN, SENSOR
 from ..errors import bad
 from ..modules.partition import Partition
 from ..sim.body import Body

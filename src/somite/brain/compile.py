@@ -25,8 +25,8 @@ def compile_genome(genome: Genome) -> GraphArrays:
     Returns
     -------
     GraphArrays
-        ``node_kind`` (N,) kind codes (:mod:`somite.brain.kinds`); ``node_ref`` (N,) int32: reading index for sensors, voxel index
-        for actuators, -1 for hidden nodes; ``src``, ``dst`` (E,) int32 node positions;
+        ``node_kind`` (N,) kind codes (:mod:`somite.brain.kinds`); ``node_ref`` (N,) int32:
+        reading index for sensors, voxel index for actuators, -1 for hidden nodes; ``src``, ``dst`` (E,) int32 node positions;
         ``weight``, ``bias`` (E,) float64.
     """
     index = genome.index

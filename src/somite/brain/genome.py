@@ -29,7 +29,7 @@ import numpy as np
 
 from .._io import write_atomic
 from ..errors import bad
-from ..sim.body import SENSOR_WIDTH, Body
+from ..sim.body import Body
 
 from .kinds import ACTUATOR, HIDDEN, KIND_CODE, KIND_DTYPE, NODE_KINDS, SENSOR
 
@@ -75,7 +75,7 @@ class BodyTable(NamedTuple):
 @functools.lru_cache(maxsize=64)
 def body_table(body: Body) -> BodyTable:
     """The reading table of ``body``; cached because every genome of a run shares one body."""
-    n_slots = tuple(sum(SENSOR_WIDTH[k] for k in kinds) for kinds in body.sensors)
+    n_slots = tuple(len(slots) for slots in body.slots)
     first = np.concatenate(([0], np.cumsum(n_slots)[:-1])).astype(np.int64)
     table = BodyTable(
         voxel_index={xy: i for i, xy in enumerate(body.shape.voxels)},

@@ -11,11 +11,11 @@ from somite.brain.genome import Edge, Genome, Node
 from somite.cli import main
 from somite.evolution.operators import initial_genome, prune
 from somite.modules.module import CutRatio, Module, cut, pooled
-from somite.modules.partition import Partition
 from somite.modules.reassembly import Take, reassemble
 from somite.modules.transfer import rho, transferability
 from somite.sim.body import Body
 from somite.sim.config import SimConfig
+from somite.sim.partition import Partition
 from somite.tasks.validation import evaluate, validation_terrains
 
 from .conftest import evolved, expect_error

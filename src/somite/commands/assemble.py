@@ -6,8 +6,9 @@ import argparse
 import json
 from pathlib import Path
 
+from .._io import write_atomic
 from ..errors import bad
-from ..modules.library import assemble, list_library, parse_placement, write_atomic
+from ..modules.library import assemble, list_library, parse_placement
 from .common import add_simulation_options, simulation_config
 
 HELP = "Assemble a robot from library modules placed at grid offsets (NAME@X,Y)."

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..modules.partition import Partition
+from ..sim.partition import Partition
 from ..viz.brain import BRAIN_FORMATS, draw_brain
 from ..viz.output import check_output
 from .common import load_genome
@@ -16,7 +16,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("genome", help="genome JSON, or a run directory (its best.json)")
     parser.add_argument("--out", default="brain.png", help="brain.png or brain.svg")
     parser.add_argument("--partition", default=None,
-                        help="worm-halves, biped-legs, paper, or a label grid like AAABBB/AAABBB")
+                        help="worm-halves, biped-legs, paper, a label grid like AAABBB/AAABBB "
+                        "or a partition.json (somite discover writes one)")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -31,7 +31,8 @@ def add_evolution_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration", type=finite_float("duration"), help="episode length [s]")
     parser.add_argument("--omega", type=finite_float("omega"), help="modularity bias (1 = none)")
     parser.add_argument("--modules",
-                        help="partition for omega: paper, worm-halves, biped-legs or a grid")
+                        help="partition for omega: paper, worm-halves, biped-legs, a grid "
+                        "or a partition.json")
     parser.add_argument("--weights-only", action="store_true", default=None,
                         help="the ablation: only weight mutation (p_mutate_edge 1, others 0)")
     parser.add_argument("--checkpoint-every", type=int)

@@ -5,11 +5,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from .._io import write_atomic
 from ..brain.genome import Genome
 from ..errors import bad
-from ..modules.discovery import partition_from_spec
-from ..modules.library import list_library, module_text, provenance_of, write_atomic
+from ..modules.library import list_library, module_text, provenance_of
 from ..modules.module import cut
+from ..sim.partition import Partition
 from .common import finite_float, print_json
 
 HELP = "Module library: 'module export' writes one module of a genome, 'module list' lists."
@@ -54,7 +55,7 @@ def _export(args: argparse.Namespace) -> int:
     if not out.name.endswith(".json") or out.name == ".json":
         raise bad("out", args.out, "a module file is named NAME.json (NAME is its library name)")
     donor = Genome.load(args.genome)
-    partition = partition_from_spec(args.partition, donor.body.shape)
+    partition = Partition.parse(args.partition, donor.body.shape)
     module = cut(donor, partition).module(args.module)
     provenance = provenance_of(
         module, donor, partition.grid_string(), str(args.genome), args.velocity

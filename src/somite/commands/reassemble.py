@@ -15,14 +15,13 @@ import io
 import json
 from pathlib import Path
 
+from .._io import write_atomic
 from ..brain.genome import Genome
 from ..errors import bad
-from ..modules.discovery import partition_from_spec
-from ..modules.library import write_atomic
 from ..modules.module import cut
-from ..modules.partition import Partition
 from ..modules.reassembly import Take, reassemble
 from ..sim.body import Body, Shape
+from ..sim.partition import Partition
 from .common import add_simulation_options, simulation_config
 
 HELP = "Reassemble a robot from modules of two donor genomes; report eta, v_x and rho."
@@ -138,7 +137,7 @@ def _donor_partitions(specs, donors) -> tuple[Partition, Partition]:
         raise bad("partition", specs, "give one partition for both donors, or one per donor")
     if len(specs) == 1:
         specs = specs * 2
-    return tuple(partition_from_spec(s, d.body.shape) for s, d in zip(specs, donors))
+    return tuple(Partition.parse(s, d.body.shape) for s, d in zip(specs, donors))
 
 
 def _receiver(args, donors, partitions) -> tuple[Body, Partition]:
@@ -152,11 +151,11 @@ def _receiver(args, donors, partitions) -> tuple[Body, Partition]:
     else:
         body = Body.build(shape, "paper")
     if args.receiver_partition is not None:
-        partition = partition_from_spec(args.receiver_partition, shape)
+        partition = Partition.parse(args.receiver_partition, shape)
     elif same:
         partition = partitions[same[0]]
     else:
-        partition = partition_from_spec("paper", shape)
+        partition = Partition.parse("paper", shape)
     if len(partition.modules) < 2:
         raise bad("receiver-partition", partition.grid_string(), "need at least two modules")
     return body, partition

@@ -20,8 +20,8 @@ import numpy as np
 
 from ..brain.compile import compile_genome
 from ..brain.genome import Genome
-from ..modules.partition import Partition
 from ..sim.body import Body
+from ..sim.partition import Partition
 from ..sim.system import compile_system
 from ..sim.terrain import Terrain, hilly, parse_terrain
 from ..tasks.locomotion import compile_controllers, outcomes, run

@@ -39,8 +39,8 @@ from ..evolution.ea import (
     seeded_population,
     statistics,
 )
-from ..modules.partition import Partition
 from ..sim.body import Body
+from ..sim.partition import Partition
 from .logfile import LOG_COLUMNS
 
 RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json")

@@ -23,7 +23,7 @@ import numpy as np
 from ..brain.genome import Edge, Genome, Node
 from ..errors import bad
 from ..sim.body import Body, Shape, is_connected, voxel_readings
-from .partition import Partition
+from ..sim.partition import Partition
 
 Voxel = tuple[int, int]
 

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 from ..brain.genome import Genome
 from ..errors import bad
 from ..sim.body import Body
+from ..sim.partition import Partition
 from .graft import Graft, GraftReport, graft
 from .module import CutRatio, Disassembly, Voxel, _check_partition, cut, pooled
-from .partition import Partition
 
 
 @dataclass(frozen=True, repr=False)

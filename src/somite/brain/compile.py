@@ -26,8 +26,8 @@ def compile_genome(genome: Genome) -> GraphArrays:
     -------
     GraphArrays
         ``node_kind`` (N,) kind codes (:mod:`somite.brain.kinds`); ``node_ref`` (N,) int32:
-        reading index for sensors, voxel index for actuators, -1 for hidden nodes; ``src``, ``dst`` (E,) int32 node positions;
-        ``weight``, ``bias`` (E,) float64.
+        reading index for sensors, voxel index for actuators, -1 for hidden nodes; ``src``,
+        ``dst`` (E,) int32 node positions; ``weight``, ``bias`` (E,) float64.
     """
     index = genome.index
     table = body_table(genome.body)

@@ -10,6 +10,7 @@ from ..errors import bad
 from ..sim.terrain import parse_terrain
 from ..tasks.validation import evaluate, validation_terrains
 from .common import (
+    add_options,
     add_simulation_options,
     load_genome,
     print_json,
@@ -23,10 +24,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("genome", help="genome JSON, or a run directory (its best.json)")
     parser.add_argument("--terrain", action="append", dest="terrains",
                         help="terrain name (repeatable); default: the 10 validation terrains")
-    parser.add_argument("--validation", type=int, default=10,
-                        help="how many fixed validation terrains when no --terrain is given")
+    add_options(parser, "validation", notes={"validation": "used when no --terrain is given"})
     add_simulation_options(parser)
-    parser.add_argument("--json", action="store_true", help="print JSON")
+    add_options(parser, "json")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -11,7 +11,7 @@ from ..errors import bad
 from ..modules.library import list_library, module_text, provenance_of
 from ..modules.module import cut
 from ..sim.partition import Partition
-from .common import finite_float, print_json
+from .common import add_options, finite_float, print_json
 
 HELP = "Module library: 'module export' writes one module of a genome, 'module list' lists."
 
@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         description="List the modules of a library folder (every *.json in it).",
     )
     listing.add_argument("folder", nargs="+", help="library folder(s) or module files")
-    listing.add_argument("--json", action="store_true", help="print JSON")
+    add_options(listing, "json")
 
 
 def run(args: argparse.Namespace) -> int:

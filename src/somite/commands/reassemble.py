@@ -19,7 +19,7 @@ from ..brain.genome import Genome
 from ..errors import bad
 from ..modules.reassembly import Take, paper_takes, reassemble, receiver_for
 from ..sim.partition import Partition
-from .common import add_simulation_options, simulation_config
+from .common import add_options, add_simulation_options, simulation_config
 
 HELP = "Reassemble a robot from modules of two donor genomes; report eta, v_x and rho."
 
@@ -69,10 +69,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--take", metavar="MAP",
         help="receiver module <- donor module, e.g. torso=DONOR2:front,left-leg=DONOR1:left-leg",
     )
-    parser.add_argument(
-        "--validation", type=int, default=10, metavar="N",
-        help="validation terrains for v_x and rho (0: do not simulate; default 10)",
-    )
+    add_options(parser, "validation", notes={"validation": "v_x and rho on them; 0: none"})
     add_simulation_options(parser)
     parser.add_argument("--draw", action="store_true", help="draw the brain on the body")
 

@@ -151,14 +151,14 @@ class Genome:
         return len(self.nodes)
 
     @property
-    def n_edges(self) -> int:
-        """|E|, the number of edges."""
-        return len(self.edges)
-
-    @property
     def size(self) -> int:
         """|G| = |V| + |E| (original-system.md section 4.1)."""
         return len(self.nodes) + len(self.edges)
+
+    @property
+    def n_edges(self) -> int:
+        """|E|, the number of edges."""
+        return len(self.edges)
 
     @property
     def position(self) -> dict[int, int]:

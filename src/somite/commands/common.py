@@ -31,6 +31,12 @@ def print_json(data) -> None:
     sys.stdout.write("\n")
 
 
+def add_genome(parser: argparse.ArgumentParser, name: str = "genome", role: str = "") -> None:
+    """A positional genome argument, read by :func:`load_genome`; ``role`` says whose it is."""
+    what = f"{role}: " if role else ""
+    parser.add_argument(name, help=f"{what}genome JSON, or a run directory (its best.json)")
+
+
 def load_genome(path: str):
     """A genome from a genome JSON file, or from a run directory's ``best.json``."""
     from pathlib import Path
@@ -85,11 +91,15 @@ def add_options(parser: argparse.ArgumentParser, *names: str, layered: str = "",
                 notes: dict[str, str] | None = None) -> None:
     """Declare the shared options ``names`` (``--duration``, ``--seed``, ...) on ``parser``.
 
-    Each takes its one default from :data:`DEFAULTS`. With ``layered`` (e.g. "the run's"), an
+    ``genome`` is the positional genome argument (:func:`add_genome`). Each option takes its
+    one default from :data:`DEFAULTS`. With ``layered`` (e.g. "the run's"), an
     option not given is None and the command takes ``layered``'s value first, the default only
     after it (:func:`option`). ``notes`` adds a command's remark to an option's help.
     """
     for name in names:
+        if name == "genome":
+            add_genome(parser)
+            continue
         kwargs, text = _SHARED[name]
         kwargs = dict(kwargs)
         if name in DEFAULTS:

@@ -11,12 +11,13 @@ from .._io import write_atomic
 from ..brain.genome import Genome
 from ..errors import bad
 from ..modules.discovery import partition_around, rank_candidates, score
+from .common import add_options, load_genome
 
 HELP = "Find the most compact module of a genome (eq. 5) and partition its body around it."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("genome", help="genome file")
+    add_options(parser, "genome")
     parser.add_argument("--out", required=True, help="output folder")
     parser.add_argument("--min", dest="b_min", type=int, default=2, help="b_min (default 2)")
     parser.add_argument("--max", dest="b_max", type=int, default=5, help="b_max (default 5)")
@@ -26,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise bad("out", args.out, "exists and is not a folder")
-    genome = Genome.load(args.genome)
+    genome = load_genome(args.genome)
     ranked = rank_candidates(genome, args.b_min, args.b_max)
     best = ranked[0]
     partition = partition_around(genome.body.shape, best.voxels)

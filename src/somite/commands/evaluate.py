@@ -9,22 +9,16 @@ import numpy as np
 from ..errors import bad
 from ..sim.terrain import parse_terrain
 from ..tasks.validation import evaluate, validation_terrains
-from .common import (
-    add_options,
-    add_simulation_options,
-    load_genome,
-    print_json,
-    simulation_config,
-)
+from .common import add_options, add_simulation_options, load_genome, print_json, simulation_config
 
 HELP = "Evaluate a genome (file or run directory) on validation terrains; per-terrain v_x."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("genome", help="genome JSON, or a run directory (its best.json)")
+    add_options(parser, "genome", "validation",
+                notes={"validation": "used when no --terrain is given"})
     parser.add_argument("--terrain", action="append", dest="terrains",
-                        help="terrain name (repeatable); default: the 10 validation terrains")
-    add_options(parser, "validation", notes={"validation": "used when no --terrain is given"})
+                        help="terrain name (repeatable); default: the validation terrains")
     add_simulation_options(parser)
     add_options(parser, "json")
 

@@ -6,12 +6,11 @@ import argparse
 from pathlib import Path
 
 from .._io import write_atomic
-from ..brain.genome import Genome
 from ..errors import bad
 from ..modules.library import list_library, module_text, provenance_of
 from ..modules.module import cut
 from ..sim.partition import Partition
-from .common import add_options, finite_float, print_json
+from .common import add_genome, add_options, finite_float, load_genome, print_json
 
 HELP = "Module library: 'module export' writes one module of a genome, 'module list' lists."
 
@@ -23,7 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         description="Write one module of a genome (its voxels, sensors, nodes and internal "
         "edges) as a somite-module file.",
     )
-    export.add_argument("genome", help="donor genome file")
+    add_genome(export, role="the donor")
     export.add_argument(
         "--partition", default="paper",
         help="a preset (paper, worm-halves, biped-legs), a grid of labels or a partition.json",
@@ -54,7 +53,7 @@ def _export(args: argparse.Namespace) -> int:
         raise bad("out", args.out, "is a folder; give the module file to write")
     if not out.name.endswith(".json") or out.name == ".json":
         raise bad("out", args.out, "a module file is named NAME.json (NAME is its library name)")
-    donor = Genome.load(args.genome)
+    donor = load_genome(args.genome)
     partition = Partition.parse(args.partition, donor.body.shape)
     module = cut(donor, partition).module(args.module)
     provenance = provenance_of(

@@ -15,11 +15,16 @@ import json
 from pathlib import Path
 
 from .._io import write_atomic
-from ..brain.genome import Genome
 from ..errors import bad
 from ..modules.reassembly import Take, paper_takes, reassemble, receiver_for
 from ..sim.partition import Partition
-from .common import add_options, add_simulation_options, simulation_config
+from .common import (
+    add_genome,
+    add_options,
+    add_simulation_options,
+    load_genome,
+    simulation_config,
+)
 
 HELP = "Reassemble a robot from modules of two donor genomes; report eta, v_x and rho."
 
@@ -46,8 +51,8 @@ CSV_COLUMNS = (
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("donor1", help="genome file of donor 1")
-    parser.add_argument("donor2", help="genome file of donor 2")
+    add_genome(parser, "donor1", role="donor 1")
+    add_genome(parser, "donor2", role="donor 2")
     parser.add_argument(
         "--partition", action="append", metavar="P",
         help="donors' partition: a preset (paper, worm-halves, biped-legs), a grid of labels "
@@ -79,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     if args.validation < 0:
         raise bad("validation", args.validation, "must be 0 or more")
     config = simulation_config(args)
-    genomes = (Genome.load(args.donor1), Genome.load(args.donor2))
+    genomes = (load_genome(args.donor1), load_genome(args.donor2))
     donors = tuple(zip(genomes, _donor_partitions(args.partition, genomes)))
     body, receiver = receiver_for(
         donors, args.receiver_shape, args.receiver_sensors, args.receiver_partition

@@ -7,7 +7,7 @@ import argparse
 from ..errors import bad
 from ..experiments.reoptimize import donor_velocity, transfer_curve
 from ..experiments.runner import RunDirectory, evolve
-from .common import add_options, load_genome
+from .common import add_genome, add_options, load_genome
 from .evolve import add_evolution_options, configuration, progress_bar, summarise
 
 HELP = ("Re-optimise a genome with the EA from it and its mutants (510 generations in the "
@@ -15,7 +15,7 @@ HELP = ("Re-optimise a genome with the EA from it and its mutants (510 generatio
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("genome", help="the genome to start from (e.g. reassembled.json)")
+    add_genome(parser, role="the genome to start from (e.g. reassembled.json)")
     parser.add_argument("--donors", nargs="+", default=(),
                         help="donor genomes: rho = v_x / mean v_x of the donors")
     add_options(parser, "validation", notes={"validation": "rho is measured on them"})

@@ -22,13 +22,18 @@ from ..viz.video import (
     record_episode,
     write_episode,
 )
-from .common import add_simulation_options, finite_float, load_genome, simulation_config
+from .common import (
+    add_options,
+    add_simulation_options,
+    finite_float,
+    load_genome,
+    simulation_config,
+)
 
 HELP = "Simulate a genome (file or run directory) and write an MP4/GIF video or a PNG strip."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("genome", help="genome JSON, or a run directory (its best.json)")
     parser.add_argument("--terrain", default="hilly-1-10-0", help=TERRAIN_HELP)
     add_simulation_options(parser, layered="the run's")
     parser.add_argument("--out", default=None,
@@ -43,6 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="video width (960) or tile width (320) [px]")
     parser.add_argument("--height", type=int, default=None,
                         help="video height (540) or tile height (240) [px]")
+    add_options(parser, "genome")
 
 
 def run(args: argparse.Namespace) -> int:

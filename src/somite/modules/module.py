@@ -76,10 +76,8 @@ class Module:
         object.__setattr__(self, "_genome", _standalone(self))
 
     def __repr__(self) -> str:
-        return (
-            f"Module({self.label!r}, voxels={len(self.voxels)}, nodes={len(self.nodes)}, "
-            f"edges={len(self.edges)})"
-        )
+        counts = f"voxels={self.size}, nodes={len(self.nodes)}, edges={len(self.edges)}"
+        return f"Module({self.label!r}, {counts})"
 
     @property
     def size(self) -> int:

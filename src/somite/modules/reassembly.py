@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from ..brain.genome import Genome
 from ..errors import bad
@@ -25,16 +26,15 @@ from .graft import Graft, GraftReport, graft
 from .module import CutRatio, Disassembly, Voxel, _check_partition, cut, pooled
 
 
-@dataclass(frozen=True, repr=False)
-class Take:
-    """One part of a reassembly: module ``label`` of ``donor`` cut along ``partition``."""
+class Take(NamedTuple):
+    """One part of a reassembly: module ``label`` of ``donor`` cut along ``partition``.
+
+    A plain ``(donor, partition, label)`` tuple is accepted wherever a Take is.
+    """
 
     donor: Genome
     partition: Partition
     label: str
-
-    def __repr__(self) -> str:
-        return f"Take({self.label!r} of {self.donor!r})"
 
 
 @dataclass(frozen=True, repr=False)

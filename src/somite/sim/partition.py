@@ -54,15 +54,8 @@ PAPER_PRESET = {grid: name for name, (grid, _) in PARTITION_PRESETS.items()}
 
 @dataclass(frozen=True)
 class Partition:
-    """A module label for every voxel of a shape.
-
-    Attributes
-    ----------
-    shape : Shape
-        The partitioned shape.
-    labels : tuple of str
-        ``labels[i]`` is the module of ``shape.voxels[i]``.
-    """
+    """A module label for every voxel of a shape: ``labels[i]`` is the module of
+    ``shape.voxels[i]``; labels are non-empty strings, and each module is 4-connected."""
 
     shape: Shape
     labels: tuple[str, ...]

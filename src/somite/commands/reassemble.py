@@ -99,16 +99,7 @@ def run(args: argparse.Namespace) -> int:
         entry["file"] = str(path)
     report["file"] = "reassembled.json"
     if args.validation:
-        from ..modules.transfer import transferability
-        from ..tasks.validation import validation_terrains
-
-        measured = transferability(
-            result.genome, *genomes, validation_terrains(args.validation), config, args.seed
-        )
-        report["validation"] = {
-            "n_terrains": args.validation, "duration": config.duration, "preset": args.preset,
-            "seed": args.seed, **measured.to_dict(),
-        }
+        report["validation"] = _validation(args, result.genome, genomes, config)
     if args.draw:
         report["draw"] = "reassembled.png"
     out.mkdir(parents=True, exist_ok=True)
@@ -123,6 +114,19 @@ def run(args: argparse.Namespace) -> int:
     if args.draw:
         print(f"  drawing -> {out / 'reassembled.png'}")
     return 0
+
+
+def _validation(args, reassembled, donors, config) -> dict:
+    """v_x of the new robot and both donors on the validation terrains, and rho."""
+    from ..modules.transfer import transferability
+    from ..tasks.validation import validation_terrains
+
+    terrains = validation_terrains(args.validation)
+    measured = transferability(reassembled, *donors, terrains, config, args.seed)
+    return {
+        "n_terrains": args.validation, "duration": config.duration, "preset": args.preset,
+        "seed": args.seed, **measured.to_dict(),
+    }
 
 
 def _check_out(text: str) -> Path:

@@ -19,8 +19,17 @@ from somite.brain.genome import Genome
 from somite.cli import main
 from somite.errors import SomiteError
 from somite.evolution.config import EvolutionConfig, resolve
-from somite.evolution.ea import tournament, truncate
+from somite.evolution.ea import (
+    Evaluator,
+    generation,
+    initial_population,
+    statistics,
+    tournament,
+    truncate,
+)
 from somite.experiments.runner import LOG_COLUMNS, evolve
+from somite.modules.partition import Partition
+from somite.sim.body import Body
 
 SMALL = {"shape": "worm", "population": 8, "generations": 4, "duration": 3.0, "seed": 3}
 
@@ -68,6 +77,25 @@ def test_weights_only_never_changes_topology(tmp_path):
     state = evolve(resolve({**SMALL, "weights_only": True}), tmp_path / "run")
     assert {(g.n_nodes, g.n_edges) for g in state.population.genomes} == {(52, 40)}
     assert {r["best_operator"] for r in rows(tmp_path / "run")} <= {"init", "mutate_edge"}
+
+
+def test_omega_one_run_is_the_same_with_and_without_a_partition():
+    """omega = 1 is neutral: a library caller passing a partition gets the run, log and
+    genomes (hidden nodes' voxels included) of a run without one."""
+    config = resolve({**SMALL, "generations": 3, "omega": 1.0, "p_add_node": 0.6})
+    body = Body.build(config.shape)
+    evaluate = Evaluator(body, config)
+    runs = []
+    for partition in (None, Partition.preset("worm-halves", body.shape)):
+        rng = np.random.default_rng(config.seed)
+        population = initial_population(body, config, evaluate, rng)
+        log = [statistics(population, population.fitness)]
+        for _ in range(config.generations):
+            population, computed = generation(population, config, evaluate, rng, partition)
+            log.append(statistics(population, computed))
+        runs.append((json.dumps(log), [g.to_dict() for g in population.genomes]))
+    assert any(n.kind == "hidden" for g in population.genomes for n in g.nodes)
+    assert runs[0] == runs[1]
 
 
 def test_nan_counts_as_the_worst():

@@ -23,6 +23,8 @@ LIDAR_ORIGINAL = (-math.pi / 5, -math.pi / 10, 0.0, math.pi / 10, math.pi / 5)
 
 ACTIVATIONS = ("tanh", "sigmoid")
 FRAMES = ("world", "voxel")
+NOISE_STREAMS = ("independent", "java-random-0")
+VOXEL_ANGLES = ("vector-mean", "angle-mean")
 
 
 @dataclass(frozen=True)
@@ -31,6 +33,16 @@ class SimConfig:
 
     Lengths in m, times in s, masses in kg. ``*_window`` are moving-average windows in control
     steps (1 = the current reading only).
+
+    ``noise_stream``: ``independent`` (somite) draws every reading's noise afresh from the
+    robot's seed, step and reading; ``java-random-0`` (the authors' code) gives every sensor of
+    every voxel the same ``java.util.Random(0)`` Gaussian sequence, restarted each episode, so
+    the seed is ignored (original-system.md section 2.1).
+
+    ``voxel_angle``, the voxel's orientation for voxel-frame sensors: ``vector-mean`` (somite)
+    is the direction of the sum of the bottom and top side vectors; ``angle-mean`` (the authors'
+    code) is the plain mean of the two sides' atan2 angles, which is off by pi when the two
+    straddle +-pi, as for an upside-down voxel (original-system.md section 1.2).
     """
 
     duration: float = 30.0
@@ -54,6 +66,8 @@ class SimConfig:
     velocity_frame: str = "world"
     velocity_max: float = 8.0
     hidden_activation: str = "tanh"
+    noise_stream: str = "independent"
+    voxel_angle: str = "vector-mean"
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -84,6 +98,8 @@ class SimConfig:
             ("lidar_frame", FRAMES),
             ("velocity_frame", FRAMES),
             ("hidden_activation", ACTIVATIONS),
+            ("noise_stream", NOISE_STREAMS),
+            ("voxel_angle", VOXEL_ANGLES),
         ):
             if getattr(self, name) not in allowed:
                 raise bad(name, getattr(self, name), f"use one of {allowed}")
@@ -128,6 +144,8 @@ PRESETS: dict[str, dict] = {
         "touch_window": 16,
         "velocity_window": 31,
         "velocity_frame": "voxel",
+        "noise_stream": "java-random-0",
+        "voxel_angle": "angle-mean",
     },
 }
 """The simulation half of each preset (decisions.md, "Two presets, one code path")."""
@@ -161,8 +179,9 @@ def preset(name: str, **options) -> SimConfig:
     P_VELOCITY_FRAME,
     P_VELOCITY_MAX,
     P_HIDDEN_SIGMOID,
+    P_VOXEL_ANGLE,
     P_LIDAR0,
-) = range(20)
+) = range(21)
 N_PARAMS = P_LIDAR0 + 5
 
 
@@ -190,6 +209,7 @@ def pack_params(config: SimConfig) -> np.ndarray:
     params[P_VELOCITY_FRAME] = FRAMES.index(config.velocity_frame)
     params[P_VELOCITY_MAX] = config.velocity_max
     params[P_HIDDEN_SIGMOID] = ACTIVATIONS.index(config.hidden_activation)
+    params[P_VOXEL_ANGLE] = VOXEL_ANGLES.index(config.voxel_angle)
     params[P_LIDAR0 : P_LIDAR0 + 5] = config.lidar_angles
     return params
 

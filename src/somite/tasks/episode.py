@@ -21,15 +21,13 @@ from ..brain.openloop import sine_actuation, table_actuation
 from ..sim.config import (
     CONTROL_HZ,
     P_HIDDEN_SIGMOID,
-    P_LIDAR_FRAME,
     P_MIN_LENGTH,
     P_SUBSTEPS,
     P_TOUCH_WINDOW,
-    P_VELOCITY_FRAME,
     P_VELOCITY_WINDOW,
 )
 from ..sim.physics import enforce_min_lengths, set_rest_lengths, substep
-from ..sim.sensors import lidar_rays, sense, update_histories, voxel_state
+from ..sim.sensors import angle_mode, lidar_rays, sense, update_histories, voxel_state
 
 ZERO, SINE, TABLE, GRAPH = 0, 1, 2, 3
 CONTROLLER_KINDS = {"zero": ZERO, "sine": SINE, "table": TABLE, "graph": GRAPH}
@@ -125,8 +123,9 @@ def _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation,
 
 
 @njit
-def run_robot(b, system, ctrl, params, seed, n_steps, trace):
-    """Simulate robot ``b`` of the batch for ``n_steps`` control steps into ``trace``."""
+def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
+    """Simulate robot ``b`` of the batch for ``n_steps`` control steps into ``trace``
+    (``noise``: see :func:`~somite.sim.sensors.noise_table`)."""
     n_points = system.n_points[b]
     n_springs = system.n_springs[b]
     n_voxels = system.n_voxels[b]
@@ -170,7 +169,7 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
     h_next = np.zeros(n_nodes)
     substeps = int(params[P_SUBSTEPS])
     rays = lidar_rays(params)
-    with_angle = params[P_LIDAR_FRAME] == 1.0 or params[P_VELOCITY_FRAME] == 1.0
+    angle = angle_mode(params)
 
     cx, cy = _centre_of_mass(n_points, mass, pos)
     trace.com[b, 0, 0] = cx
@@ -195,12 +194,12 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
             break
         trace.com[b, k, 0] = cx
         trace.com[b, k, 1] = cy
-        voxel_state(n_voxels, corners, pos, vel, with_angle, voxels)
+        voxel_state(n_voxels, corners, pos, vel, angle, voxels)
         for v in range(n_voxels):
             smallest = min(smallest, voxels[v, 4])
         update_histories(k - 1, n_voxels, corners, contact, voxels, touch_hist, vel_hist, params)
         sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
-              touch_hist, vel_hist, rays, xs, ys, n_terrain, segment[n_points], params,
+              touch_hist, vel_hist, rays, xs, ys, n_terrain, segment[n_points], params, noise,
               readings)
         _control(b, k, ctrl, n_voxels, system.voxel_x[b], readings, h_prev, h_next, actuation,
                  params)
@@ -211,7 +210,7 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
 
 
 @njit(parallel=True)
-def run_batch(system, ctrl, params, seeds, n_steps, trace):
+def run_batch(system, ctrl, params, noise, seeds, n_steps, trace):
     """Run every robot of the batch; robots are spread over the available threads."""
     for b in prange(seeds.shape[0]):
-        run_robot(b, system, ctrl, params, seeds[b], n_steps, trace)
+        run_robot(b, system, ctrl, params, noise, seeds[b], n_steps, trace)

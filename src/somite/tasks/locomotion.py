@@ -17,6 +17,7 @@ from ..brain.controllers import GraphArrays, Sine, Table, Zero
 from ..errors import bad
 from ..sim.body import Body
 from ..sim.config import CONTROL_HZ, SimConfig, pack_params
+from ..sim.sensors import noise_table
 from ..sim.system import System, compile_system, pad
 from ..sim.terrain import Terrain
 from .episode import (
@@ -143,7 +144,8 @@ def run(
     # Robots take unequal times (graph sizes, contacts): hand them out one at a time.
     previous = numba.set_parallel_chunksize(1)
     try:
-        run_batch(system, controllers, pack_params(config), seeds_arr, config.n_steps, trace)
+        run_batch(system, controllers, pack_params(config), noise_table(config), seeds_arr,
+                  config.n_steps, trace)
     finally:
         numba.set_parallel_chunksize(previous)
     return trace
@@ -159,8 +161,9 @@ def simulate(
 ) -> tuple[list[Outcome], Trace]:
     """Simulate robot b = (bodies[b], terrains[b], controllers[b]) for every b, in one batch.
 
-    ``seeds`` seeds each robot's sensor noise (one int seeds them all alike). With ``record``
-    the trace also holds every step's corner positions, actuation, readings and contacts.
+    ``seeds`` seeds each robot's sensor noise (one int seeds them all alike; unused with
+    ``noise_stream = "java-random-0"``). With ``record`` the trace also holds every step's
+    corner positions, actuation, readings and contacts.
     """
     config = config or SimConfig()
     n = len(bodies)

@@ -28,8 +28,8 @@ from somite.evolution.ea import (
     truncate,
 )
 from somite.experiments.runner import LOG_COLUMNS, evolve
-from somite.modules.partition import Partition
 from somite.sim.body import Body
+from somite.sim.partition import Partition
 
 SMALL = {"shape": "worm", "population": 8, "generations": 4, "duration": 3.0, "seed": 3}
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import mannwhitneyu
 
-from somite.evolution.config import resolve
+from somite.experiments.config import resolve
 from somite.experiments.runner import evolve
 from somite.modules.module import cut
 from somite.sim.partition import Partition

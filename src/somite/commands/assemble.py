@@ -59,13 +59,12 @@ def run(args: argparse.Namespace) -> int:
 def _evaluate(args, genome, config) -> dict:
     import math
 
-    import numpy as np
-
     from ..tasks.validation import evaluate, validation_terrains
+    from ..tasks.velocity import mean_velocity
 
     terrains = validation_terrains(args.evaluate)
     velocity = evaluate([genome], terrains, config, args.seed)[0]
-    mean = float(np.mean(velocity))
+    mean = mean_velocity(velocity)
     return {
         "genome": "assembled.json",
         "placements": list(args.place),

@@ -9,6 +9,7 @@ import numpy as np
 from ..errors import bad
 from ..sim.terrain import parse_terrain
 from ..tasks.validation import evaluate, validation_terrains
+from ..tasks.velocity import mean_velocity
 from .common import add_options, add_simulation_options, load_genome, print_json, simulation_config
 
 HELP = "Evaluate a genome (file or run directory) on validation terrains; per-terrain v_x."
@@ -33,10 +34,11 @@ def run(args: argparse.Namespace) -> int:
         terrains = validation_terrains(args.validation)
     config = simulation_config(args)
     velocities = evaluate([genome], terrains, config, args.seed)[0]
+    mean = mean_velocity(velocities)  # NaN when any terrain is (the one rule)
     report = {
         "genome": args.genome,
         "terrains": {t.name: float(v) for t, v in zip(terrains, velocities)},
-        "mean_velocity": float(np.nanmean(velocities)) if np.isfinite(velocities).any() else None,
+        "mean_velocity": None if np.isnan(mean) else mean,
         "non_finite": int(np.isnan(velocities).sum()),
     }
     if args.json:
@@ -44,5 +46,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         for name, value in report["terrains"].items():
             print(f"{name:>22}: {value:8.4f} m/s")
-        print(f"{'mean':>22}: {report['mean_velocity']:8.4f} m/s")
+        mean = report["mean_velocity"]
+        print(f"{'mean':>22}: {'NaN' if mean is None else f'{mean:8.4f}'} m/s"
+              f"{'  (non-finite on some terrain)' if report['non_finite'] else ''}")
     return 0

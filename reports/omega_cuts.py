@@ -22,7 +22,7 @@ from scipy.stats import mannwhitneyu
 from somite.experiments.config import resolve
 from somite.experiments.runner import evolve
 from somite.modules.module import cut
-from somite.modules.partition import Partition
+from somite.sim.partition import Partition
 
 
 def main() -> None:

@@ -10,8 +10,8 @@ from somite.brain.compile import compile_genome
 from somite.brain.genome import Genome
 from somite.errors import SomiteError
 from somite.evolution.operators import OperatorConfig, initial_genome, mutate
-from somite.modules.partition import Partition
 from somite.sim.body import Body, Shape, is_connected
+from somite.sim.partition import Partition
 
 grids = st.integers(1, 5).flatmap(
     lambda width: st.lists(

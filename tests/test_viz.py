@@ -24,9 +24,9 @@ from somite.brain.genome import Edge, Genome, body_table
 from somite.cli import main
 from somite.errors import SomiteError
 from somite.evolution.operators import initial_genome
-from somite.modules.partition import Partition
 from somite.sim.body import Body
 from somite.sim.config import VOXEL_SIDE, preset
+from somite.sim.partition import Partition
 from somite.viz.brain import bilinear, brain_drawing, draw_brain
 from somite.viz.frame import GRID, SKY, area_colour, frame_steps, render_frame
 from somite.viz.plots import curve, plot_runs, plot_validation, stats_path

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ..experiments.config import resolve
 from ..experiments.runner import RunDirectory, evolve
+from .common import add_options
 from .evolve import progress_bar, summarise
 
 HELP = "Evolve a worm on flat ground for 30 generations, render its best gait, plot the run."
@@ -21,7 +22,7 @@ mostly the robot that drew the luckiest terrain, and would barely walk on anothe
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="demo", help="output folder")
     parser.add_argument("--generations", type=int, default=DEMO["generations"])
-    parser.add_argument("--quiet", action="store_true")
+    add_options(parser, "quiet")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -10,24 +10,18 @@ from ..errors import bad
 from ..sim.terrain import parse_terrain
 from ..tasks.validation import evaluate_outcomes, validation_terrains
 from ..tasks.velocity import mean_velocity
-from .common import (
-    add_simulation_options,
-    load_genome,
-    print_json,
-    simulation_config,
-)
+from .common import add_options, add_simulation_options, load_genome, print_json, simulation_config
 
 HELP = "Evaluate a genome (file or run directory) on validation terrains; per-terrain v_x."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("genome", help="genome JSON, or a run directory (its best.json)")
+    add_options(parser, "genome", "validation",
+                notes={"validation": "used when no --terrain is given"})
     parser.add_argument("--terrain", action="append", dest="terrains",
-                        help="terrain name (repeatable); default: the 10 validation terrains")
-    parser.add_argument("--validation", type=int, default=10,
-                        help="how many fixed validation terrains when no --terrain is given")
+                        help="terrain name (repeatable); default: the validation terrains")
     add_simulation_options(parser)
-    parser.add_argument("--json", action="store_true", help="print JSON")
+    add_options(parser, "json")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -10,28 +10,30 @@ from ..evolution.ea import GraphEA
 from ..experiments.config import RunConfig, load_toml, resolve
 from ..experiments.runner import RunDirectory, evolve
 from ..tasks.distributions import DISTRIBUTION_HELP
-from .common import finite_float, seed_int
+from .common import add_options, finite_float
 
 HELP = "Evolve a graph controller with the paper's EA; writes logs, bests and checkpoints."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--shape", help="biped, worm, WxH or rows like 1111/1001")
-    parser.add_argument("--sensors", help="sensor preset: paper, none, area or all")
+    add_options(parser, "shape", "sensors", layered=_LAYERED)
     add_evolution_options(parser)
+
+
+_LAYERED = "the --config file's"
 
 
 def add_evolution_options(parser: argparse.ArgumentParser) -> None:
     """The options shared by ``evolve`` and ``reoptimize``."""
     parser.add_argument("--out", required=True, help="run directory")
     parser.add_argument("--config", help="TOML file with any of the options below")
-    parser.add_argument("--preset", help="paper (default) or original-code")
+    add_options(parser, "preset", layered=_LAYERED)
     parser.add_argument("--generations", type=int)
     parser.add_argument("--population", type=int)
-    parser.add_argument("--seed", type=seed_int)
+    add_options(parser, "seed", layered=_LAYERED)
     parser.add_argument("--terrain", help=f"training terrains: {DISTRIBUTION_HELP}; "
                         "default hilly-1-10-rnd (a new terrain per evaluation)")
-    parser.add_argument("--duration", type=finite_float("duration"), help="episode length [s]")
+    add_options(parser, "duration", layered=_LAYERED)
     parser.add_argument("--evaluations", type=int, metavar="K",
                         help="terrains per evaluation, fitness their mean v_x (1: the paper)")
     parser.add_argument("--validate-every", type=int, metavar="N",
@@ -39,13 +41,14 @@ def add_evolution_options(parser: argparse.ArgumentParser) -> None:
                         "generations and at the last (default 50; 0: never)")
     parser.add_argument("--omega", type=finite_float("omega"), help="modularity bias (1 = none)")
     parser.add_argument("--modules",
-                        help="partition for omega: paper, worm-halves, biped-legs or a grid")
+                        help="partition for omega: paper, worm-halves, biped-legs, a grid "
+                        "or a partition.json")
     parser.add_argument("--weights-only", action="store_true", default=None,
                         help="the ablation: only weight mutation (p_mutate_edge 1, others 0)")
     parser.add_argument("--checkpoint-every", type=int)
     parser.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
     parser.add_argument("--force", action="store_true", help="overwrite an existing run")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_options(parser, "quiet")
 
 
 _OPTIONS = ("preset", "shape", "sensors", "generations", "population", "seed", "terrain",

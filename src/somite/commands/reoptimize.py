@@ -9,7 +9,7 @@ from ..errors import bad
 from ..experiments.reoptimize import donor_velocities, transfer_curve
 from ..experiments.runner import RunDirectory, evolve
 from ..tasks.velocity import mean_velocity
-from .common import load_genome
+from .common import add_genome, add_options, load_genome
 from .evolve import add_evolution_options, configuration, progress_bar, summarise
 
 HELP = ("Re-optimise a genome with the EA from it and its mutants (510 generations in the "
@@ -17,11 +17,10 @@ HELP = ("Re-optimise a genome with the EA from it and its mutants (510 generatio
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("genome", help="the genome to start from (e.g. reassembled.json)")
+    add_genome(parser, role="the genome to start from (e.g. reassembled.json)")
     parser.add_argument("--donors", nargs="+", default=(),
                         help="donor genomes: rho = v_x / mean v_x of the donors")
-    parser.add_argument("--validation", type=int, default=10,
-                        help="fixed validation terrains for rho")
+    add_options(parser, "validation", notes={"validation": "rho is measured on them"})
     add_evolution_options(parser)
     parser.set_defaults(generations=510)
 

@@ -10,8 +10,8 @@ import math
 from dataclasses import dataclass, field, fields, replace
 
 from ..errors import bad
-from ..modules.partition import Partition
 from ..sim.body import Shape
+from ..sim.partition import Partition
 from .operators import OperatorConfig
 
 SEEDED_MUTANTS = ("population-1", "population")
@@ -54,7 +54,7 @@ class GAConfig:
         ``population`` (authors' code) mutants of it.
     modules : str
         The partition the biased operators use when ``operators.omega`` != 1: ``paper``,
-        ``worm-halves``, ``biped-legs`` or a grid of labels.
+        ``worm-halves``, ``biped-legs``, a grid of labels or a partition file (``*.json``).
     weights_only : bool
         The ablation: only ``mutate_edge`` (the probabilities in ``operators`` are ignored).
     operators : OperatorConfig

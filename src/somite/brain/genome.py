@@ -30,7 +30,6 @@ import numpy as np
 from .._io import write_atomic
 from ..errors import bad
 from ..sim.body import Body
-
 from .kinds import ACTUATOR, HIDDEN, KIND_CODE, KIND_DTYPE, NODE_KINDS, SENSOR
 
 FORMAT = "somite-genome"

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -49,18 +50,18 @@ class SimConfig:
     transient: float = 5.0
     start_gap: float = 1.0
     substeps: int = 8
-    spring_hz: float = 8.0
-    damping_ratio: float = 0.3
-    diagonal_stiffness: float = 1.0
+    spring_hz: float = 6.4
+    damping_ratio: float = 0.6
+    diagonal_stiffness: float = 1.4
     area_delta: float = 0.225
-    min_side_ratio: float = 0.8
+    min_side_ratio: float = 0.72
     min_diagonal_ratio: float = 0.5
     min_area_ratio: float = 0.3
     gravity: float = 9.8
     drag: float = 0.1
-    friction: float = 1.4
-    max_peak_depth: float = 0.2
-    contact_radius: float = 0.0
+    friction: float = 1.25
+    max_peak_depth: float = 0.04
+    contact_radius: float = 0.25
     noise_sigma: float = 0.01
     lidar_range: float = 10.0
     lidar_angles: tuple[float, ...] = LIDAR_PAPER
@@ -164,69 +165,67 @@ def preset(name: str, **options) -> SimConfig:
     return SimConfig().with_options(**{**PRESETS[name], **options})
 
 
-# Layout of the packed parameter vector read by the kernels.
-(
-    P_DT,
-    P_SUBSTEPS,
-    P_STIFFNESS,
-    P_DAMPING,
-    P_GRAVITY,
-    P_DRAG,
-    P_FRICTION,
-    P_CONTRACT,
-    P_EXPAND,
-    P_DIAGONAL,
-    P_MIN_SIDE,
-    P_MIN_DIAGONAL,
-    P_MIN_AREA,
-    P_PEAK_DEPTH,
-    P_RADIUS,
-    P_NOISE,
-    P_LIDAR_RANGE,
-    P_LIDAR_FRAME,
-    P_TOUCH_WINDOW,
-    P_VELOCITY_WINDOW,
-    P_VELOCITY_FRAME,
-    P_VELOCITY_MAX,
-    P_HIDDEN_SIGMOID,
-    P_TRANSIENT_STEPS,
-    P_VOXEL_ANGLE,
-    P_LIDAR0,
-) = range(26)
-N_PARAMS = P_LIDAR0 + 5
+class Params(NamedTuple):
+    """What the kernels read of a :class:`SimConfig`: derived numbers, typed, SI units."""
+
+    dt: float  # [s] one physics substep
+    substeps: int  # physics substeps per control step
+    stiffness: float  # [N/m] of one side spring (two corner masses, ``spring_hz``)
+    damping: float  # [N s/m] of one side spring (``damping_ratio``)
+    gravity: float  # [m/s^2]
+    drag: float  # [1/s]
+    friction: float  # Coulomb coefficient
+    contract: float  # rest-length scale at actuation +1
+    expand: float  # rest-length scale at actuation -1
+    diagonal: float  # stiffness of a diagonal over a side's
+    min_side: float  # hard lower limit of a side over its rest length
+    min_diagonal: float  # the same for a diagonal
+    min_area: float  # lower limit of a voxel's signed area over its rest area
+    peak_depth: float  # [m] how far a terrain vertex may sink into an outer side
+    radius: float  # [m] of the contact disc at each corner
+    noise: float  # sensor noise sigma
+    lidar_range: float  # [m]
+    lidar_frame: int  # FRAMES index
+    touch_window: int  # control steps
+    velocity_window: int  # control steps
+    velocity_frame: int  # FRAMES index
+    velocity_max: float  # [m/s]
+    hidden_sigmoid: bool  # hidden neurons: sigmoid (else tanh)
+    transient_steps: int  # control steps before v_x is measured
+    voxel_angle: int  # VOXEL_ANGLES index
+    lidar_angles: np.ndarray  # (5,) ray angles [rad] (an array: prange kernels take no
+    # tuples inside tuples)
 
 
-def pack_params(config: SimConfig) -> np.ndarray:
-    """The kernel's view of ``config``: one float64 vector indexed by ``P_*``."""
+def pack_params(config: SimConfig) -> Params:
+    """The kernels' view of ``config``."""
     omega = 2 * math.pi * config.spring_hz
     reduced_mass = CORNER_MASS / 2  # two corner masses joined by one spring
-    params = np.zeros(N_PARAMS, dtype=np.float64)
-    params[P_DT] = 1.0 / CONTROL_HZ / config.substeps
-    params[P_SUBSTEPS] = config.substeps
-    params[P_STIFFNESS] = reduced_mass * omega**2
-    params[P_DAMPING] = 2 * reduced_mass * config.damping_ratio * omega
-    params[P_GRAVITY] = config.gravity
-    params[P_DRAG] = config.drag
-    params[P_FRICTION] = config.friction
-    params[P_CONTRACT] = math.sqrt(1 - config.area_delta)
-    params[P_EXPAND] = math.sqrt(1 + config.area_delta)
-    params[P_DIAGONAL] = config.diagonal_stiffness
-    params[P_MIN_SIDE] = config.min_side_ratio
-    params[P_MIN_DIAGONAL] = config.min_diagonal_ratio
-    params[P_MIN_AREA] = config.min_area_ratio
-    params[P_PEAK_DEPTH] = config.max_peak_depth
-    params[P_RADIUS] = config.contact_radius
-    params[P_NOISE] = config.noise_sigma
-    params[P_LIDAR_RANGE] = config.lidar_range
-    params[P_LIDAR_FRAME] = FRAMES.index(config.lidar_frame)
-    params[P_TOUCH_WINDOW] = config.touch_window
-    params[P_VELOCITY_WINDOW] = config.velocity_window
-    params[P_VELOCITY_FRAME] = FRAMES.index(config.velocity_frame)
-    params[P_VELOCITY_MAX] = config.velocity_max
-    params[P_HIDDEN_SIGMOID] = ACTIVATIONS.index(config.hidden_activation)
-    params[P_TRANSIENT_STEPS] = config.transient_steps
-    params[P_VOXEL_ANGLE] = VOXEL_ANGLES.index(config.voxel_angle)
-    params[P_LIDAR0 : P_LIDAR0 + 5] = config.lidar_angles
-    return params
-
-
+    return Params(
+        dt=1.0 / CONTROL_HZ / config.substeps,
+        substeps=config.substeps,
+        stiffness=reduced_mass * omega**2,
+        damping=2 * reduced_mass * config.damping_ratio * omega,
+        gravity=float(config.gravity),
+        drag=float(config.drag),
+        friction=float(config.friction),
+        contract=math.sqrt(1 - config.area_delta),
+        expand=math.sqrt(1 + config.area_delta),
+        diagonal=float(config.diagonal_stiffness),
+        min_side=float(config.min_side_ratio),
+        min_diagonal=float(config.min_diagonal_ratio),
+        min_area=float(config.min_area_ratio),
+        peak_depth=float(config.max_peak_depth),
+        radius=float(config.contact_radius),
+        noise=float(config.noise_sigma),
+        lidar_range=float(config.lidar_range),
+        lidar_frame=FRAMES.index(config.lidar_frame),
+        touch_window=config.touch_window,
+        velocity_window=config.velocity_window,
+        velocity_frame=FRAMES.index(config.velocity_frame),
+        velocity_max=float(config.velocity_max),
+        hidden_sigmoid=config.hidden_activation == "sigmoid",
+        transient_steps=config.transient_steps,
+        voxel_angle=VOXEL_ANGLES.index(config.voxel_angle),
+        lidar_angles=np.array(config.lidar_angles, dtype=np.float64),
+    )

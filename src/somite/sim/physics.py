@@ -12,18 +12,6 @@ from __future__ import annotations
 import math
 
 from .._jit import njit
-from .config import (
-    P_CONTRACT,
-    P_DAMPING,
-    P_DRAG,
-    P_DT,
-    P_EXPAND,
-    P_FRICTION,
-    P_GRAVITY,
-    P_PEAK_DEPTH,
-    P_RADIUS,
-    P_STIFFNESS,
-)
 
 CONTACT_TOLERANCE = 0.01
 """A corner within this height [m] of the ground counts as touching it."""
@@ -44,8 +32,8 @@ def rest_length_factor(actuation: float, contract: float, expand: float) -> floa
 def set_rest_lengths(n_voxels, n_springs, owners, rest0, actuation, params, factor, rest):
     """Rest length of each spring for the voxels' current actuation (mean over its owners);
     ``factor`` (V,) is scratch for the voxels' scales."""
-    contract = params[P_CONTRACT]
-    expand = params[P_EXPAND]
+    contract = params.contract
+    expand = params.expand
     for v in range(n_voxels):
         factor[v] = rest_length_factor(actuation[v], contract, expand)
     for s in range(n_springs):
@@ -68,11 +56,11 @@ def integrate(n_points, n_springs, ends, strength, rest, min_length, mass, inv_m
     shorter than their ``min_length``; only when there are any (rarely) does the hard limit
     (:func:`enforce_min_lengths`) run, before the velocities change.
     """
-    dt = params[P_DT]
-    k = params[P_STIFFNESS]
-    c = params[P_DAMPING]
-    g = params[P_GRAVITY]
-    drag = params[P_DRAG]
+    dt = params.dt
+    k = params.stiffness
+    c = params.damping
+    g = params.gravity
+    drag = params.drag
     for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
@@ -222,8 +210,8 @@ def ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n, fi
     each side are searched for the nearest ground point, so that a disc rolls over a crest and
     steep walls and step risers push sideways, not up.
     """
-    mu = params[P_FRICTION]
-    radius = params[P_RADIUS]
+    mu = params.friction
+    radius = params.radius
     clear = highest_ground(xs, ys, n, first, hi_x) + radius + CONTACT_TOLERANCE
     for p in range(n_points):
         x = pos[p, 0]
@@ -275,20 +263,22 @@ def ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n, fi
 
 
 @njit(inline="always")
-def side_contact(n_boundary, boundary, pos, vel, contact, xs, ys, n, first, hi_x, lo_y,
+def side_contact(n_boundary, boundary, inv_mass, pos, vel, contact, xs, ys, n, first, hi_x, lo_y,
                  params):
     """Keep terrain vertices out of the robot's outer sides; Coulomb friction, no bounce.
 
     Together with :func:`ground_contact` (corners against terrain segments) this makes the
     robot's whole outline a solid surface: it rests on a crest with a side, not only with a
     point, as the original's rigid corner squares do. A vertex may sink ``max_peak_depth``
-    into a side before it is pushed out (0: a solid side). The push and the impulses at the
-    contact point (a fraction ``lam`` along side a -> b) are shared by a and b in proportion to
-    how much each moves that point.
+    into a side before it is pushed out. A vertex behind several sides goes out through the
+    shallowest one only. The push and the impulses act at the contact point, a fraction
+    ``lam`` along side a -> b, shared by a and b as a rigid side would share them (each end
+    in proportion to how much it moves that point and to its inverse mass), so that they
+    exert no torque about the contact point.
     """
-    limit = params[P_PEAK_DEPTH]
-    mu = params[P_FRICTION]
-    radius = params[P_RADIUS]
+    limit = params.peak_depth
+    mu = params.friction
+    radius = params.radius
     for i in range(first + 1, n - 1):
         tx = xs[i]
         if tx > hi_x + radius:
@@ -296,50 +286,66 @@ def side_contact(n_boundary, boundary, pos, vel, contact, xs, ys, n, first, hi_x
         ty = ys[i]
         if ty <= lo_y - radius:
             continue  # below every corner's disc: it cannot touch the robot
+        side = -1
+        depth = 0.0
+        lam = 0.0
         for q in range(n_boundary):
             a = boundary[q, 0]
             b = boundary[q, 1]
             ex = pos[b, 0] - pos[a, 0]
             ey = pos[b, 1] - pos[a, 1]
             length2 = ex * ex + ey * ey
-            lam = ((tx - pos[a, 0]) * ex + (ty - pos[a, 1]) * ey) / length2
-            if lam <= 0.0 or lam >= 1.0:
+            at = ((tx - pos[a, 0]) * ex + (ty - pos[a, 1]) * ey) / length2
+            if at <= 0.0 or at >= 1.0:
                 continue
-            inv = 1.0 / math.sqrt(length2)
-            nx = ey * inv  # the side's outward normal (the robot is on its left)
-            ny = -ex * inv
-            depth = radius - ((tx - pos[a, 0]) * nx + (ty - pos[a, 1]) * ny)
-            if depth <= limit - CONTACT_TOLERANCE or depth >= MAX_SIDE_DEPTH + radius:
+            # How deep the vertex is behind the side's outward normal (ey, -ex) / length.
+            d = radius - ((tx - pos[a, 0]) * ey - (ty - pos[a, 1]) * ex) / math.sqrt(length2)
+            if d <= limit - CONTACT_TOLERANCE or d >= MAX_SIDE_DEPTH + radius:
                 continue
-            contact[a] = True
-            contact[b] = True
-            if depth <= limit:
-                continue
-            wa = 1.0 - lam
-            wb = lam
-            share = 1.0 / (wa * wa + wb * wb)
-            push = (depth - limit) * share
-            pos[a, 0] -= nx * push * wa
-            pos[a, 1] -= ny * push * wa
-            pos[b, 0] -= nx * push * wb
-            pos[b, 1] -= ny * push * wb
-            # The side's velocity at the contact point, along the normal into the vertex (> 0
-            # closes) and along the side.
-            vx = wa * vel[a, 0] + wb * vel[b, 0]
-            vy = wa * vel[a, 1] + wb * vel[b, 1]
-            vn = vx * nx + vy * ny
-            if vn <= 0.0:
-                continue
-            vt = (vx * ex + vy * ey) * inv
-            cut = min(abs(vt), mu * vn)
-            if vt < 0.0:
-                cut = -cut
-            jx = (vn * nx + cut * ex * inv) * share
-            jy = (vn * ny + cut * ey * inv) * share
-            vel[a, 0] -= jx * wa
-            vel[a, 1] -= jy * wa
-            vel[b, 0] -= jx * wb
-            vel[b, 1] -= jy * wb
+            if side < 0 or d < depth:
+                side = q
+                depth = d
+                lam = at
+        if side < 0:
+            continue
+        a = boundary[side, 0]
+        b = boundary[side, 1]
+        contact[a] = True
+        contact[b] = True
+        if depth <= limit:
+            continue
+        ex = pos[b, 0] - pos[a, 0]
+        ey = pos[b, 1] - pos[a, 1]
+        inv = 1.0 / math.sqrt(ex * ex + ey * ey)
+        tx_ = ex * inv
+        ty_ = ey * inv
+        nx = ty_  # outward normal
+        ny = -tx_
+        wa = (1.0 - lam) * inv_mass[a]
+        wb = lam * inv_mass[b]
+        share = 1.0 / ((1.0 - lam) * wa + lam * wb)  # effective mass at the contact point
+        push = (depth - limit) * share
+        pos[a, 0] -= nx * push * wa
+        pos[a, 1] -= ny * push * wa
+        pos[b, 0] -= nx * push * wb
+        pos[b, 1] -= ny * push * wb
+        # The side's velocity at the contact point, along the normal into the vertex (> 0
+        # closes) and along the side.
+        vx = (1.0 - lam) * vel[a, 0] + lam * vel[b, 0]
+        vy = (1.0 - lam) * vel[a, 1] + lam * vel[b, 1]
+        vn = vx * nx + vy * ny
+        if vn <= 0.0:
+            continue
+        vt = vx * tx_ + vy * ty_
+        cut = min(abs(vt), mu * vn)
+        if vt < 0.0:
+            cut = -cut
+        jx = (vn * nx + cut * tx_) * share
+        jy = (vn * ny + cut * ty_) * share
+        vel[a, 0] -= jx * wa
+        vel[a, 1] -= jy * wa
+        vel[b, 0] -= jx * wb
+        vel[b, 1] -= jy * wb
 
 
 @njit(inline="always")
@@ -401,9 +407,9 @@ def substep(robot, ground, scratch, pos, vel, params):
     keep_orientation(robot.n_voxels, robot.corners, robot.min_area, robot.inv_mass, pos, vel)
     lo_x, hi_x, lo_y = extent(robot.n_points, pos)
     segment = scratch.segment
-    first = segment_near(ground.xs, ground.n, lo_x - params[P_RADIUS], segment[robot.n_points])
+    first = segment_near(ground.xs, ground.n, lo_x - params.radius, segment[robot.n_points])
     segment[robot.n_points] = first
     ground_contact(robot.n_points, pos, vel, scratch.contact, segment, ground.xs, ground.ys,
-                   ground.nx, ground.ny, ground.n, first, hi_x + params[P_RADIUS], params)
-    side_contact(robot.n_boundary, robot.boundary, pos, vel, scratch.contact, ground.xs,
-                 ground.ys, ground.n, first, hi_x, lo_y, params)
+                   ground.nx, ground.ny, ground.n, first, hi_x + params.radius, params)
+    side_contact(robot.n_boundary, robot.boundary, robot.inv_mass, pos, vel, scratch.contact,
+                 ground.xs, ground.ys, ground.n, first, hi_x, lo_y, params)

@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._jit import njit
-from .config import P_DIAGONAL, P_MIN_AREA, P_MIN_DIAGONAL, P_MIN_SIDE, VOXEL_SIDE
+from .config import VOXEL_SIDE
 
 
 class Robot(NamedTuple):
@@ -72,17 +72,17 @@ def robot_view(system, b, params) -> Robot:
     min_length = np.empty(n_springs)
     for s in range(n_springs):
         if system.spring_diagonal[b, s]:
-            strength[s] = params[P_DIAGONAL]
-            min_length[s] = rest0[s] * params[P_MIN_DIAGONAL]
+            strength[s] = params.diagonal
+            min_length[s] = rest0[s] * params.min_diagonal
         else:
             strength[s] = 1.0 if owners[s, 1] < 0 else 2.0
-            min_length[s] = rest0[s] * params[P_MIN_SIDE]
+            min_length[s] = rest0[s] * params.min_side
     mass = system.mass[b, :n_points]
     return Robot(
         n_points, n_springs, system.n_voxels[b], system.n_boundary[b],
         system.spring_ends[b, :n_springs], owners, strength, rest0, min_length, mass, 1.0 / mass,
         system.voxel_corners[b], system.boundary[b],
-        params[P_MIN_AREA] * VOXEL_SIDE * VOXEL_SIDE,
+        params.min_area * VOXEL_SIDE * VOXEL_SIDE,
     )
 
 

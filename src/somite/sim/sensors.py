@@ -20,18 +20,7 @@ import numpy as np
 
 from .._jit import njit
 from .._math import tanh
-from .config import (
-    P_LIDAR0,
-    P_LIDAR_FRAME,
-    P_LIDAR_RANGE,
-    P_NOISE,
-    P_TOUCH_WINDOW,
-    P_VELOCITY_FRAME,
-    P_VELOCITY_MAX,
-    P_VELOCITY_WINDOW,
-    P_VOXEL_ANGLE,
-    SimConfig,
-)
+from .config import SimConfig
 from .physics import segment_near
 from .system import R_AREA, R_LIDAR0, R_TOUCH, R_VX, R_VY
 from .terrain import JavaRandom
@@ -95,9 +84,9 @@ def noise_table(config: SimConfig) -> np.ndarray:
 def angle_mode(params) -> int:
     """The voxel angle :func:`voxel_state` must compute: none unless a sensor reads in the
     voxel frame, else the configured ``voxel_angle``."""
-    if params[P_LIDAR_FRAME] != 1.0 and params[P_VELOCITY_FRAME] != 1.0:
+    if params.lidar_frame != 1.0 and params.velocity_frame != 1.0:
         return NO_ANGLE
-    return ANGLE_MEAN if params[P_VOXEL_ANGLE] == 1.0 else VECTOR_MEAN
+    return ANGLE_MEAN if params.voxel_angle == 1.0 else VECTOR_MEAN
 
 
 @njit
@@ -180,9 +169,9 @@ def raycast(x0, y0, dx, dy, reach, xs, ys, n, guess) -> float:
 @njit
 def update_histories(step, n_voxels, corners, contact, voxels, touch_hist, vel_hist, params):
     """Store this step's touch and velocity (in the configured frame) in the ring buffers."""
-    wt = int(params[P_TOUCH_WINDOW])
-    wv = int(params[P_VELOCITY_WINDOW])
-    rotate = params[P_VELOCITY_FRAME] == 1.0
+    wt = int(params.touch_window)
+    wv = int(params.velocity_window)
+    rotate = params.velocity_frame == 1.0
     for v in range(n_voxels):
         touching = 0.0
         for k in range(4):
@@ -214,11 +203,11 @@ def sense(step, seed, n_readings, codes, reading_voxel, voxels, touch_hist, vel_
     """Fill ``readings`` (R,) for control step ``step`` (from 0; histories already updated);
     ``guess`` is a terrain segment near the robot; ``noise`` is :func:`noise_table`'s (empty:
     independent noise from ``seed``)."""
-    wt = int(params[P_TOUCH_WINDOW])
-    wv = int(params[P_VELOCITY_WINDOW])
-    vmax = params[P_VELOCITY_MAX]
-    reach = params[P_LIDAR_RANGE]
-    sigma = params[P_NOISE]
+    wt = int(params.touch_window)
+    wv = int(params.velocity_window)
+    vmax = params.velocity_max
+    reach = params.lidar_range
+    sigma = params.noise
     for r in range(n_readings):
         v = reading_voxel[r]
         code = codes[r]
@@ -237,7 +226,7 @@ def sense(step, seed, n_readings, codes, reading_voxel, voxels, touch_hist, vel_
             ray = code - R_LIDAR0
             dx = rays[ray, 0]
             dy = rays[ray, 1]
-            if params[P_LIDAR_FRAME] == 1.0:
+            if params.lidar_frame == 1.0:
                 c = math.cos(voxels[v, 5])
                 s = math.sin(voxels[v, 5])
                 dx, dy = dx * c - dy * s, dx * s + dy * c
@@ -267,6 +256,6 @@ def lidar_rays(params):
     """Unit direction (world frame, or voxel frame before rotation) of the 5 lidar rays."""
     rays = np.empty((5, 2))
     for k in range(5):
-        rays[k, 0] = math.cos(params[P_LIDAR0 + k])
-        rays[k, 1] = math.sin(params[P_LIDAR0 + k])
+        rays[k, 0] = math.cos(params.lidar_angles[k])
+        rays[k, 1] = math.sin(params.lidar_angles[k])
     return rays

@@ -18,15 +18,7 @@ from numba import prange
 from .._jit import njit
 from ..brain.kernels import graph_step
 from ..brain.openloop import sine_actuation, table_actuation
-from ..sim.config import (
-    CONTROL_HZ,
-    P_HIDDEN_SIGMOID,
-    P_RADIUS,
-    P_SUBSTEPS,
-    P_TOUCH_WINDOW,
-    P_TRANSIENT_STEPS,
-    P_VELOCITY_WINDOW,
-)
+from ..sim.config import CONTROL_HZ
 from ..sim.physics import enforce_min_lengths, ground_height, set_rest_lengths, substep
 from ..sim.robot import ground_view, new_scratch, robot_view
 from ..sim.sensors import angle_mode, lidar_rays, sense, update_histories, voxel_state
@@ -133,7 +125,7 @@ def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, guess
     if k <= SETTLE_STEPS:
         return
     gap = np.inf
-    radius = params[P_RADIUS]
+    radius = params.radius
     for p in range(n_points):
         gap = min(gap, pos[p, 1] - radius - ground_height(xs, ys, n_terrain, pos[p, 0], guess))
     total = vx = vy = 0.0
@@ -143,7 +135,7 @@ def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, guess
         vy += mass[p] * vel[p, 1]
     speed = math.sqrt(vx * vx + vy * vy) / total
     out[D_MAX_TILT] = max(out[D_MAX_TILT], tilt)
-    if k > params[P_TRANSIENT_STEPS] and tilt > 90.0:
+    if k > params.transient_steps and tilt > 90.0:
         out[D_FLIPPED] += 1.0
     out[D_MAX_GAP] = max(out[D_MAX_GAP], gap)
     height = cy - ground_height(xs, ys, n_terrain, cx, guess)
@@ -176,7 +168,7 @@ def _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation,
         old, new = (h_prev, h_next) if k % 2 == 1 else (h_next, h_prev)
         graph_step(ctrl.n_nodes[b], ctrl.node_kind[b], ctrl.node_ref[b], ctrl.n_edges[b],
                    ctrl.edge_src[b], ctrl.edge_dst[b], ctrl.edge_weight[b], ctrl.edge_bias[b],
-                   old, new, readings, actuation, params[P_HIDDEN_SIGMOID] == 1.0)
+                   old, new, readings, actuation, params.hidden_sigmoid)
 
 
 @njit
@@ -196,14 +188,14 @@ def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
     pos = system.initial_pos[b, :n_points].copy()
     vel = np.zeros((n_points, 2))
     voxels = np.zeros((n_voxels, 6))
-    touch_hist = np.zeros((n_voxels, int(params[P_TOUCH_WINDOW])))
-    vel_hist = np.zeros((n_voxels, int(params[P_VELOCITY_WINDOW]), 2))
+    touch_hist = np.zeros((n_voxels, int(params.touch_window)))
+    vel_hist = np.zeros((n_voxels, int(params.velocity_window), 2))
     readings = np.zeros(n_readings)
     actuation = np.zeros(n_voxels)
     n_nodes = ctrl.n_nodes[b]
     h_prev = np.zeros(n_nodes)
     h_next = np.zeros(n_nodes)
-    substeps = int(params[P_SUBSTEPS])
+    substeps = int(params.substeps)
     rays = lidar_rays(params)
     angle = angle_mode(params)
 

@@ -59,8 +59,8 @@ def square(x0: float, y0: float, side: float = VOXEL_SIDE) -> np.ndarray:
 
 def run_ground(robot, ground, scratch, pos, vel, params):
     """ground_contact as substep calls it (leftmost segment and extent of the corners)."""
-    _, hi_x, _ = extent(robot.n_points, pos)
-    first = segment_near(ground.xs, ground.n, pos[:, 0].min(), 0)
+    lo_x, hi_x, _ = extent(robot.n_points, pos)
+    first = segment_near(ground.xs, ground.n, lo_x, 0)
     scratch.contact[:] = True  # stale flags: the kernel must set every one
     ground_contact(robot.n_points, pos, vel, scratch.contact, scratch.segment, ground.xs,
                    ground.ys, ground.nx, ground.ny, ground.n, first, hi_x, params)
@@ -271,16 +271,21 @@ def test_peak_within_the_tolerated_depth_is_left_alone():
 
 
 def test_vertex_deeper_than_max_side_depth_belongs_to_another_side():
-    """A peak under the middle of body 111, 1.55 m into the bottom side: it is only 1.45 m
-    behind the top side, so the top side, not the bottom one, is pushed."""
+    """A peak under the middle of body 111, just over MAX_SIDE_DEPTH into the bottom side: the
+    bottom side leaves it alone; the top side pushes it out if it is within MAX_SIDE_DEPTH of
+    that one (1.45 m with the default 1.5 m)."""
     start = at_rest("111", 11.0, 1.0)
-    robot, ground, scratch, params = kit(peak_under(15.5, 1.0 + MAX_SIDE_DEPTH + 0.05), "111")
+    depth = MAX_SIDE_DEPTH + 0.05
+    robot, ground, scratch, params = kit(peak_under(15.5, 1.0 + depth), "111")
     pos = start.copy()
     vel = np.zeros((robot.n_points, 2))
     run_side(robot, ground, scratch, pos, vel, params)
     np.testing.assert_array_equal(pos[:4], start[:4])
-    assert np.all(pos[5:7, 1] < start[5:7, 1])
-    assert np.flatnonzero(scratch.contact).tolist() == [5, 6]
+    if VOXEL_SIDE - depth < MAX_SIDE_DEPTH:
+        assert np.all(pos[5:7, 1] < start[5:7, 1])
+        assert np.flatnonzero(scratch.contact).tolist() == [5, 6]
+    else:
+        assert not scratch.contact.any()
 
 
 def test_vertex_beyond_the_ends_of_a_side_is_ignored():
@@ -294,7 +299,7 @@ def test_vertex_beyond_the_ends_of_a_side_is_ignored():
     tip = sw + np.array([-0.3, 0.3])
     bottom = (se - sw) / VOXEL_SIDE
     depth = -(tip - sw) @ np.array([bottom[1], -bottom[0]])
-    assert (tip - sw) @ bottom < 0.0 and pack_params(quiet())[P_PEAK_DEPTH] < depth < 1.5
+    assert (tip - sw) @ bottom < 0.0 and pack_params(quiet())[P_PEAK_DEPTH] < depth < MAX_SIDE_DEPTH
     robot, ground, scratch, params = kit(peak_under(*tip))
     pos = np.array([sw, se, nw, ne])
     vel = np.tile([0.0, -1.0], (4, 1))

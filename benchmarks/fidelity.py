@@ -54,14 +54,15 @@ def load_reference(path: Path) -> list[dict]:
     return rows
 
 
-def run_somite(rows: list[dict], config: SimConfig) -> list[dict]:
-    """Each reference cell run in somite: v_x and the same diagnostics."""
+def run_somite(rows: list[dict], config: SimConfig, amplitude: float = 1.0) -> list[dict]:
+    """Each reference cell run in somite: v_x and the same diagnostics. An ``amplitude`` a
+    hair under 1 measures somite's own chaos, as the reference's README does for its own."""
     bodies = {name: Body.build(shape) for name, shape in SHAPES.items()}
     terrains = {name: parse_terrain(name) for name in {r["terrain"] for r in rows}}
     outcomes, trace = simulate(
         [bodies[r["shape"]] for r in rows],
         [terrains[r["terrain"]] for r in rows],
-        [Sine(freq=r["freq"], amp=1.0, phase=r["phase"]) for r in rows],
+        [Sine(freq=r["freq"], amp=amplitude, phase=r["phase"]) for r in rows],
         config,
         seeds=0,
     )

@@ -171,12 +171,10 @@ def test_corner_near_a_steep_wall_goes_sideways_to_the_nearest_segment():
     assert scratch.contact[0]
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "kernel bug (reported to the lead): a corner pushed onto a terrain vertex takes the normal "
-    "of the first of the two segments meeting there, not the direction it was pushed, so the "
-    "result is not mirror-symmetric and, without friction, the corner keeps moving into the "
-    "other segment"))
 def test_corner_pushed_onto_a_valley_vertex_stops_going_into_the_ground():
+    """The normal at a vertex is the direction of the push, not either segment's normal: the
+    result is mirror-symmetric and, without friction, the corner stops going into the ground
+    (it kept moving into the right-hand segment before issue 8's fix)."""
     valley = terrain((10.0, 0.0), (20.0, 0.0), (22.0, -1.0), (24.0, 0.0), (1990.0, 0.0))
     robot, ground, scratch, params = kit(valley, friction=0.0)
     pos = square(20.5, 3.0)
@@ -187,6 +185,40 @@ def test_corner_pushed_onto_a_valley_vertex_stops_going_into_the_ground():
     np.testing.assert_allclose(pos[0], [22.0, -1.0], atol=1e-12)
     # The push was straight up; a symmetric valley gives no reason to slide either way.
     np.testing.assert_allclose(vel[0], [0.0, 0.0], atol=1e-12)
+
+
+def test_round_corner_is_kept_a_radius_above_flat_ground():
+    radius = 0.3
+    robot, ground, scratch, params = kit(contact_radius=radius)
+    mu = params[P_FRICTION]
+    pos = np.array([[12.0, 0.1], [14.0, radius + 0.5 * CONTACT_TOLERANCE], [12.5, 0.5],
+                    [14.5, -0.2]])
+    vel = np.array([[3.0, -1.0], [0.4, -0.5], [0.7, -2.0], [0.0, 1.0]])
+    untouched = (pos[1:3].copy(), vel[1:3].copy())
+    run_ground(robot, ground, scratch, pos, vel, params)
+    np.testing.assert_allclose(pos[[0, 3]], [[12.0, radius], [14.5, radius]], atol=1e-15)
+    np.testing.assert_allclose(vel[0], [coulomb(3.0, -1.0, mu), 0.0], atol=1e-14)
+    np.testing.assert_array_equal(vel[3], [0.0, 1.0])
+    np.testing.assert_array_equal(pos[1:3], untouched[0])
+    np.testing.assert_array_equal(vel[1:3], untouched[1])
+    assert list(scratch.contact) == [True, True, False, True]
+
+
+def test_round_corner_on_a_crest_is_pushed_straight_away_from_it():
+    """A disc right above a crest vertex, closer to it than its radius, rolls on the vertex:
+    out along the line from the vertex (straight up), not along either slope's normal."""
+    radius = 0.3
+    crest = terrain((10.0, 0.0), (20.0, 0.0), (25.0, 1.0), (30.0, 0.0), (1990.0, 0.0))
+    robot, ground, scratch, params = kit(crest, contact_radius=radius)
+    mu = params[P_FRICTION]
+    pos = square(23.5, 4.0)
+    pos[0] = [25.0, 1.2]
+    vel = np.zeros((4, 2))
+    vel[0] = [1.0, -1.0]
+    run_ground(robot, ground, scratch, pos, vel, params)
+    np.testing.assert_allclose(pos[0], [25.0, 1.0 + radius], atol=1e-14)
+    np.testing.assert_allclose(vel[0], [coulomb(1.0, -1.0, mu), 0.0], atol=1e-14)
+    assert scratch.contact[0]
 
 
 # side_contact ---------------------------------------------------------------------------------

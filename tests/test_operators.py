@@ -20,8 +20,8 @@ from somite.evolution.operators import (
     remove_edge,
     remove_node,
 )
-from somite.modules.partition import Partition
 from somite.sim.body import Body, Shape
+from somite.sim.partition import Partition
 
 # Sensors 0 (voxel (0,0)) and 2 (voxel (1,0)); actuators 1 and 3.
 TINY_BODY = Body.build("2x1", "area")

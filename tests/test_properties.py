@@ -11,9 +11,9 @@ from somite.brain.controllers import Table
 from somite.brain.genome import Genome
 from somite.errors import SomiteError
 from somite.evolution.operators import OperatorConfig, initial_genome, mutate
-from somite.modules.partition import Partition
 from somite.sim.body import Body, Shape, is_connected
 from somite.sim.config import SimConfig
+from somite.sim.partition import Partition
 from somite.sim.terrain import flat, hilly
 from somite.tasks.locomotion import simulate
 

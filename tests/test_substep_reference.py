@@ -39,13 +39,20 @@ def kernel_and_model(shape: str, terrain, config=CONFIG):
 
 
 def at_rest(shape):
-    kernel, model, pos = kernel_and_model(shape, flat())
+    kernel, model, pos = kernel_and_model(shape, ground_of(f"{shape}-rest-flat"))
     pos[:, 1] -= PLACEMENT_GAP  # the bottom corners on the ground
     return kernel, model, pos, np.zeros_like(pos), np.zeros(len(model.corners))
 
 
 def hills(seed: int):
     return hilly(0.5, 2.0, 100 + seed) if seed % 2 else hilly(1.0, 3.0, 200 + seed)
+
+
+@cache
+def ground_of(name: str):
+    """The terrain of state ``name`` (one object per state, as a batch would share it)."""
+    kind = name.split("-", 1)[1]
+    return flat() if kind == "rest-flat" else hills(int(kind.split("-")[1]))
 
 
 def peak_depth(vertex, pa, pb) -> tuple[float, float, float]:
@@ -64,7 +71,7 @@ def random_state(shape, seed):
     crest 0.1 m deeper than max_peak_depth into it (even seeds) or just within the tolerated
     depth (odd seeds); corners of other sides may end up under the ground."""
     rng = np.random.default_rng(seed)
-    kernel, model, pos = kernel_and_model(shape, hills(seed))
+    kernel, model, pos = kernel_and_model(shape, ground_of(f"{shape}-random-{seed}"))
     bottom = np.flatnonzero(pos[:, 1] == pos[:, 1].min())
     sides = [(a, b) for a, b in model.boundary if a in bottom and b in bottom]
     a, b = sides[int(rng.integers(len(sides)))]
@@ -116,8 +123,13 @@ def run_kernel(kernel, pos, vel, actuation, substeps=1):
 
 
 @pytest.mark.parametrize("name", NAMES)
-def test_substep_matches_the_numpy_reference(name):
+@pytest.mark.parametrize("radius", [None, 0.4])
+def test_substep_matches_the_numpy_reference(name, radius):
+    """With the default corners, and with corners rounded to discs of 0.4 m."""
     kernel, model, pos, vel, actuation = state(name)
+    if radius is not None:
+        kernel, model, _ = kernel_and_model(name.split("-")[0], ground_of(name),
+                                            quiet(contact_radius=radius))
     rest = reference.rest_lengths(model, actuation)
     expected = reference.substep(model, pos, vel, rest)
     got = run_kernel(kernel, pos, vel, actuation)
@@ -129,13 +141,16 @@ def test_substep_matches_the_numpy_reference(name):
 
 
 def test_the_states_exercise_every_branch_of_the_model():
-    """So that the comparison above cannot pass by comparing free falls only."""
+    """So that the comparisons above cannot pass by comparing free falls only."""
     events = reference.Events()
     for name in NAMES:
         _, model, pos, vel, actuation = state(name)
-        reference.substep(model, pos, vel, reference.rest_lengths(model, actuation), events)
-    for branch in ("min_length", "orientation", "ground", "ground_impact", "ground_slide",
-                   "side_touch", "side_push"):
+        _, round_model, _ = kernel_and_model(name.split("-")[0], ground_of(name),
+                                             quiet(contact_radius=0.4))
+        for m in (model, round_model):
+            reference.substep(m, pos, vel, reference.rest_lengths(m, actuation), events)
+    for branch in ("min_length", "orientation", "ground", "ground_disc", "ground_impact",
+                   "ground_slide", "side_touch", "side_push"):
         assert events.counts.get(branch, 0) > 0, (branch, events.counts)
 
 
@@ -163,9 +178,10 @@ def test_the_reference_follows_the_settings():
     """The oracle reads stiffness, damping, friction and limits from SimConfig: with other
     settings both sides still agree, and differ from the defaults."""
     config = quiet(spring_hz=5.0, damping_ratio=0.6, friction=0.5, drag=0.3,
-                   diagonal_stiffness=0.5, max_peak_depth=0.1, min_area_ratio=0.5, substeps=16)
+                   diagonal_stiffness=0.5, max_peak_depth=0.1, min_area_ratio=0.5, substeps=16,
+                   contact_radius=0.3)
     _, model, pos, vel, actuation = state("biped-random-2")
-    kernel, changed, _ = kernel_and_model("biped", hills(2), config)
+    kernel, changed, _ = kernel_and_model("biped", ground_of("biped-random-2"), config)
     expected = reference.substep(changed, pos, vel, reference.rest_lengths(changed, actuation))
     got = run_kernel(kernel, pos, vel, actuation)
     np.testing.assert_allclose(got[0], expected[0], rtol=0, atol=TOLERANCE)

@@ -19,13 +19,18 @@ One substep, in this order:
 3. Orientation: each voxel in turn whose signed area is below ``min_area`` has its corners
    moved along the area's gradient, weighted by inverse mass, by the linear step that
    restores ``min_area``; if its area is shrinking, that rate is removed the same way.
-4. Ground: every corner below the terrain goes to the nearest point of the terrain polyline;
-   if it was moving into the ground (along the normal there) that motion stops and its
-   sliding speed is cut by up to mu times the normal speed it lost. A corner less than
-   CONTACT_TOLERANCE above the ground, or below it, touches it.
-5. Sides: each terrain vertex (left to right) against each outer side (in order): if it lies
-   between the side's ends, behind it by more than ``max_peak_depth`` - CONTACT_TOLERANCE
-   and less than MAX_SIDE_DEPTH, both ends touch; if deeper than ``max_peak_depth`` the side
+4. Ground: each corner is a disc of radius r = ``contact_radius`` (0: a point). Its signed
+   distance s to the ground is the distance to the nearest point of the terrain polyline,
+   negative when the centre is under the ground. A corner with s < r + CONTACT_TOLERANCE
+   touches the ground; one with s < r moves out to s = r along the line from that nearest
+   point (away from it when the centre was under the ground, so that at a terrain vertex the
+   normal is the direction of the push, whichever segment it belongs to). If it was moving
+   into the ground along that normal, that motion stops and its sliding speed is cut by up
+   to mu times the normal speed it lost.
+5. Sides, thickened by r: each terrain vertex (left to right) against each outer side (in
+   order): if it lies between the side's ends, behind the thickened side by more than
+   ``max_peak_depth`` - CONTACT_TOLERANCE and less than MAX_SIDE_DEPTH (measured from the
+   side itself), both ends touch; if deeper than ``max_peak_depth`` the side
    moves along its normal, the ends sharing the move as (1 - lam, lam) (lam: the contact
    point's fraction along the side) so that the contact point moves by the excess depth; then
    the contact point's closing speed stops and its sliding is cut by Coulomb friction, the
@@ -67,6 +72,7 @@ class Model:
     expand: float
     min_area: float
     peak_depth: float
+    radius: float
 
 
 @dataclass
@@ -114,6 +120,7 @@ def model(system, b: int, config: SimConfig) -> Model:
         expand=math.sqrt(1.0 + config.area_delta),
         min_area=config.min_area_ratio * VOXEL_SIDE**2,
         peak_depth=config.max_peak_depth,
+        radius=config.contact_radius,
     )
 
 
@@ -232,19 +239,26 @@ def _nearest_on_terrain(m, point):
 def _ground(m, pos, vel, events):
     contact = np.zeros(len(pos), dtype=bool)
     for p in range(len(pos)):
-        gap = pos[p, 1] - np.interp(pos[p, 0], m.xs, m.ys)
-        contact[p] = gap < CONTACT_TOLERANCE
-        if gap >= 0.0:
+        nearest, j = _nearest_on_terrain(m, pos[p])
+        offset = pos[p] - nearest
+        distance = math.hypot(offset[0], offset[1])
+        above = pos[p, 1] >= np.interp(pos[p, 0], m.xs, m.ys)
+        signed = distance if above else -distance
+        contact[p] = signed < m.radius + CONTACT_TOLERANCE
+        if signed >= m.radius:
             continue
-        events.add("ground")
-        pos[p], j = _nearest_on_terrain(m, pos[p])
-        along = np.array([m.xs[j + 1] - m.xs[j], m.ys[j + 1] - m.ys[j]])
-        tangent = along / math.hypot(along[0], along[1])  # left to right
-        normal = np.array([-tangent[1], tangent[0]])  # up, out of the ground
+        events.add("ground" if not above else "ground_disc")
+        if distance > 1e-9:
+            normal = offset / signed  # out of the ground
+        else:  # on the ground line itself: the segment's normal
+            along = np.array([m.xs[j + 1] - m.xs[j], m.ys[j + 1] - m.ys[j]])
+            normal = np.array([-along[1], along[0]]) / math.hypot(along[0], along[1])
+        pos[p] = nearest + m.radius * normal
         vn = vel[p] @ normal
         if vn >= 0.0:
             continue
         events.add("ground_impact")
+        tangent = np.array([normal[1], -normal[0]])
         vt = vel[p] @ tangent
         kept = math.copysign(max(0.0, abs(vt) - m.friction * -vn), vt)
         if kept != 0.0:
@@ -264,8 +278,8 @@ def _sides(m, pos, vel, contact, events):
             if not 0.0 < lam < 1.0:
                 continue
             outward = np.array([along[1], -along[0]])  # the robot is on the side's left
-            depth = -(vertex - pos[a]) @ outward
-            if not m.peak_depth - CONTACT_TOLERANCE < depth < MAX_SIDE_DEPTH:
+            depth = m.radius - (vertex - pos[a]) @ outward
+            if not m.peak_depth - CONTACT_TOLERANCE < depth < MAX_SIDE_DEPTH + m.radius:
                 continue
             contact[a] = contact[b] = True
             if depth <= m.peak_depth:

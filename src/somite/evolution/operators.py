@@ -27,10 +27,11 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from ..brain.genome import ACTUATOR, HIDDEN, SENSOR, Edge, Genome, Node, body_table, next_id
+from ..brain.genome import Edge, Genome, Node, body_table, next_id
+from ..brain.kinds import ACTUATOR, HIDDEN, SENSOR
 from ..errors import bad
-from ..modules.partition import Partition
 from ..sim.body import Body
+from ..sim.partition import Partition
 
 OPERATOR_NAMES = ("mutate_edge", "add_edge", "remove_edge", "add_node", "remove_node")
 NODE_PLACEMENTS = ("module", "uniform")

@@ -60,6 +60,7 @@ class SimConfig:
     drag: float = 0.1
     friction: float = 1.4
     max_peak_depth: float = 0.2
+    contact_radius: float = 0.0
     noise_sigma: float = 0.01
     lidar_range: float = 10.0
     lidar_angles: tuple[float, ...] = LIDAR_PAPER
@@ -86,7 +87,8 @@ class SimConfig:
             if not getattr(self, name) > 0:
                 raise bad(name, getattr(self, name), "must be positive")
         non_negative = (
-            "start_gap", "damping_ratio", "drag", "friction", "noise_sigma", "max_peak_depth"
+            "start_gap", "damping_ratio", "drag", "friction", "noise_sigma", "max_peak_depth",
+            "contact_radius",
         )
         for name in non_negative:
             if getattr(self, name) < 0:
@@ -178,6 +180,7 @@ def preset(name: str, **options) -> SimConfig:
     P_MIN_DIAGONAL,
     P_MIN_AREA,
     P_PEAK_DEPTH,
+    P_RADIUS,
     P_NOISE,
     P_LIDAR_RANGE,
     P_LIDAR_FRAME,
@@ -189,7 +192,7 @@ def preset(name: str, **options) -> SimConfig:
     P_TRANSIENT_STEPS,
     P_VOXEL_ANGLE,
     P_LIDAR0,
-) = range(25)
+) = range(26)
 N_PARAMS = P_LIDAR0 + 5
 
 
@@ -212,6 +215,7 @@ def pack_params(config: SimConfig) -> np.ndarray:
     params[P_MIN_DIAGONAL] = config.min_diagonal_ratio
     params[P_MIN_AREA] = config.min_area_ratio
     params[P_PEAK_DEPTH] = config.max_peak_depth
+    params[P_RADIUS] = config.contact_radius
     params[P_NOISE] = config.noise_sigma
     params[P_LIDAR_RANGE] = config.lidar_range
     params[P_LIDAR_FRAME] = FRAMES.index(config.lidar_frame)

@@ -21,6 +21,7 @@ from .config import (
     P_FRICTION,
     P_GRAVITY,
     P_PEAK_DEPTH,
+    P_RADIUS,
     P_STIFFNESS,
 )
 
@@ -192,18 +193,38 @@ def ground_height(xs, ys, n, x, guess) -> float:
 
 
 @njit(inline="always")
+def _bounce_off(p, vel, nx, ny, mu):
+    """Remove point p's velocity into the surface of normal (nx, ny); Coulomb friction."""
+    vn = vel[p, 0] * nx + vel[p, 1] * ny
+    if vn < 0.0:
+        vel[p, 0] -= vn * nx
+        vel[p, 1] -= vn * ny
+        tx = ny
+        ty = -nx
+        vt = vel[p, 0] * tx + vel[p, 1] * ty
+        cut = min(abs(vt), -mu * vn)
+        if vt < 0.0:
+            cut = -cut
+        vel[p, 0] -= cut * tx
+        vel[p, 1] -= cut * ty
+
+
+@njit(inline="always")
 def ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n, first, hi_x,
                    params):
-    """Push corners out of the ground onto its nearest segment; no bounce, Coulomb friction.
+    """Keep the robot's corners, rounded to discs of radius ``contact_radius``, out of the
+    ground; no bounce, Coulomb friction.
 
     ``segment`` remembers each corner's segment from the previous substep; ``nxs``, ``nys`` are
     the segments' unit normals. When a corner is further, horizontally, from both ends of its
-    segment than it is deep, no other segment can be nearer, so it goes straight out along the
-    normal (the usual case). Otherwise the two neighbours on each side are searched too, so
-    that steep walls and step risers push sideways, not up.
+    segment than the disc's radius and its depth, no other segment can be nearer, so it goes
+    straight out along the segment's normal (the usual case). Otherwise the two neighbours on
+    each side are searched for the nearest ground point, so that a disc rolls over a crest and
+    steep walls and step risers push sideways, not up.
     """
     mu = params[P_FRICTION]
-    clear = highest_ground(xs, ys, n, first, hi_x) + CONTACT_TOLERANCE
+    radius = params[P_RADIUS]
+    clear = highest_ground(xs, ys, n, first, hi_x) + radius + CONTACT_TOLERANCE
     for p in range(n_points):
         x = pos[p, 0]
         y = pos[p, 1]
@@ -214,43 +235,43 @@ def ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n, fi
         segment[p] = i
         t = (x - xs[i]) / (xs[i + 1] - xs[i])
         gap = y - (ys[i] + t * (ys[i + 1] - ys[i]))
-        contact[p] = gap < CONTACT_TOLERANCE
-        if gap >= 0.0:
-            continue
         nx = nxs[i]
         ny = nys[i]
-        if min(x - xs[i], xs[i + 1] - x) >= -gap:
-            depth = (x - xs[i]) * nx + (y - ys[i]) * ny
-            pos[p, 0] = x - depth * nx
-            pos[p, 1] = y - depth * ny
+        if min(x - xs[i], xs[i + 1] - x) >= max(radius, -gap):
+            depth = radius - ((x - xs[i]) * nx + (y - ys[i]) * ny)
         else:
             best = 1e300
+            cx = cy = 0.0
             for j in range(max(0, i - 2), min(n - 1, i + 3)):
                 sx = xs[j + 1] - xs[j]
                 sy = ys[j + 1] - ys[j]
                 u = ((x - xs[j]) * sx + (y - ys[j]) * sy) / (sx * sx + sy * sy)
                 u = min(1.0, max(0.0, u))
-                cx = xs[j] + u * sx
-                cy = ys[j] + u * sy
-                d2 = (x - cx) * (x - cx) + (y - cy) * (y - cy)
+                qx = xs[j] + u * sx
+                qy = ys[j] + u * sy
+                d2 = (x - qx) * (x - qx) + (y - qy) * (y - qy)
                 if d2 < best:
                     best = d2
-                    pos[p, 0] = cx
-                    pos[p, 1] = cy
+                    cx = qx
+                    cy = qy
                     nx = nxs[j]
                     ny = nys[j]
-        vn = vel[p, 0] * nx + vel[p, 1] * ny
-        if vn < 0.0:
-            vel[p, 0] -= vn * nx
-            vel[p, 1] -= vn * ny
-            tx = ny
-            ty = -nx
-            vt = vel[p, 0] * tx + vel[p, 1] * ty
-            cut = min(abs(vt), -mu * vn)
-            if vt < 0.0:
-                cut = -cut
-            vel[p, 0] -= cut * tx
-            vel[p, 1] -= cut * ty
+            distance = math.sqrt(best)
+            if distance > 1e-9:
+                # Out of the ground along the line from the nearest ground point (towards the
+                # corner when it is above ground, away from it when below).
+                side = 1.0 if gap >= 0.0 else -1.0
+                nx = side * (x - cx) / distance
+                ny = side * (y - cy) / distance
+                depth = radius - side * distance
+            else:
+                depth = radius
+        contact[p] = depth > -CONTACT_TOLERANCE
+        if depth <= 0.0:
+            continue
+        pos[p, 0] = x + depth * nx
+        pos[p, 1] = y + depth * ny
+        _bounce_off(p, vel, nx, ny, mu)
 
 
 @njit(inline="always")
@@ -267,13 +288,14 @@ def side_contact(n_boundary, boundary, pos, vel, contact, xs, ys, n, first, hi_x
     """
     limit = params[P_PEAK_DEPTH]
     mu = params[P_FRICTION]
+    radius = params[P_RADIUS]
     for i in range(first + 1, n - 1):
         tx = xs[i]
-        if tx > hi_x:
+        if tx > hi_x + radius:
             break
         ty = ys[i]
-        if ty <= lo_y:
-            continue  # below every corner: it cannot be inside the robot
+        if ty <= lo_y - radius:
+            continue  # below every corner's disc: it cannot touch the robot
         for q in range(n_boundary):
             a = boundary[q, 0]
             b = boundary[q, 1]
@@ -286,8 +308,8 @@ def side_contact(n_boundary, boundary, pos, vel, contact, xs, ys, n, first, hi_x
             inv = 1.0 / math.sqrt(length2)
             nx = ey * inv  # the side's outward normal (the robot is on its left)
             ny = -ex * inv
-            depth = -((tx - pos[a, 0]) * nx + (ty - pos[a, 1]) * ny)
-            if depth <= limit - CONTACT_TOLERANCE or depth >= MAX_SIDE_DEPTH:
+            depth = radius - ((tx - pos[a, 0]) * nx + (ty - pos[a, 1]) * ny)
+            if depth <= limit - CONTACT_TOLERANCE or depth >= MAX_SIDE_DEPTH + radius:
                 continue
             contact[a] = True
             contact[b] = True
@@ -379,9 +401,9 @@ def substep(robot, ground, scratch, pos, vel, params):
     keep_orientation(robot.n_voxels, robot.corners, robot.min_area, robot.inv_mass, pos, vel)
     lo_x, hi_x, lo_y = extent(robot.n_points, pos)
     segment = scratch.segment
-    first = segment_near(ground.xs, ground.n, lo_x, segment[robot.n_points])
+    first = segment_near(ground.xs, ground.n, lo_x - params[P_RADIUS], segment[robot.n_points])
     segment[robot.n_points] = first
     ground_contact(robot.n_points, pos, vel, scratch.contact, segment, ground.xs, ground.ys,
-                   ground.nx, ground.ny, ground.n, first, hi_x, params)
+                   ground.nx, ground.ny, ground.n, first, hi_x + params[P_RADIUS], params)
     side_contact(robot.n_boundary, robot.boundary, pos, vel, scratch.contact, ground.xs,
                  ground.ys, ground.n, first, hi_x, lo_y, params)

@@ -21,6 +21,7 @@ from ..brain.openloop import sine_actuation, table_actuation
 from ..sim.config import (
     CONTROL_HZ,
     P_HIDDEN_SIGMOID,
+    P_RADIUS,
     P_SUBSTEPS,
     P_TOUCH_WINDOW,
     P_TRANSIENT_STEPS,
@@ -126,14 +127,15 @@ def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
 
 
 @njit
-def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, guess, transient,
+def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, guess, params,
              out):
     """Update the episode's diagnostics ``out`` (D_*) with control step ``k``."""
     if k <= SETTLE_STEPS:
         return
     gap = np.inf
+    radius = params[P_RADIUS]
     for p in range(n_points):
-        gap = min(gap, pos[p, 1] - ground_height(xs, ys, n_terrain, pos[p, 0], guess))
+        gap = min(gap, pos[p, 1] - radius - ground_height(xs, ys, n_terrain, pos[p, 0], guess))
     total = vx = vy = 0.0
     for p in range(n_points):
         total += mass[p]
@@ -141,7 +143,7 @@ def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, guess
         vy += mass[p] * vel[p, 1]
     speed = math.sqrt(vx * vx + vy * vy) / total
     out[D_MAX_TILT] = max(out[D_MAX_TILT], tilt)
-    if k > transient and tilt > 90.0:
+    if k > params[P_TRANSIENT_STEPS] and tilt > 90.0:
         out[D_FLIPPED] += 1.0
     out[D_MAX_GAP] = max(out[D_MAX_GAP], gap)
     height = cy - ground_height(xs, ys, n_terrain, cx, guess)
@@ -240,7 +242,7 @@ def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
         near = scratch.segment[n_points]
         tilt = _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels)
         _observe(k, n_points, mass, pos, vel, cx, cy, tilt, ground.xs, ground.ys, ground.n,
-                 near, params[P_TRANSIENT_STEPS], diagnostics)
+                 near, params, diagnostics)
         update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels, touch_hist,
                          vel_hist, params)
         sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,

@@ -221,25 +221,26 @@ def _orientation(m, pos, vel, events):
 
 
 def _nearest_on_terrain(m, point):
-    """Nearest point of the terrain polyline to ``point`` and the segment it lies on (the
-    first one, left to right, among equally near segments)."""
-    best, where, segment = math.inf, None, -1
+    """Nearest point of the terrain polyline to ``point``, the segment it lies on (the first
+    one, left to right, among equally near segments) and whether it is one of its ends."""
+    best, where, segment, end = math.inf, None, -1, False
     for j in range(len(m.xs) - 1):
         start = np.array([m.xs[j], m.ys[j]])
         along = np.array([m.xs[j + 1], m.ys[j + 1]]) - start
-        u = min(1.0, max(0.0, (point - start) @ along / (along @ along)))
-        candidate = start + u * along
+        u = (point - start) @ along / (along @ along)
+        clamped = min(1.0, max(0.0, u))
+        candidate = start + clamped * along
         dx, dy = point[0] - candidate[0], point[1] - candidate[1]
         d2 = dx * dx + dy * dy
         if d2 < best:
-            best, where, segment = d2, candidate, j
-    return where, segment
+            best, where, segment, end = d2, candidate, j, clamped != u
+    return where, segment, end
 
 
 def _ground(m, pos, vel, events):
     contact = np.zeros(len(pos), dtype=bool)
     for p in range(len(pos)):
-        nearest, j = _nearest_on_terrain(m, pos[p])
+        nearest, j, end = _nearest_on_terrain(m, pos[p])
         offset = pos[p] - nearest
         distance = math.hypot(offset[0], offset[1])
         above = pos[p, 1] >= np.interp(pos[p, 0], m.xs, m.ys)
@@ -248,9 +249,11 @@ def _ground(m, pos, vel, events):
         if signed >= m.radius:
             continue
         events.add("ground" if not above else "ground_disc")
-        if distance > 1e-9:
-            normal = offset / signed  # out of the ground
-        else:  # on the ground line itself: the segment's normal
+        if end and distance > 1e-9:
+            # At a terrain vertex the normal is the direction of the push, whichever segment
+            # the vertex belongs to.
+            normal = offset / signed
+        else:  # inside a segment the offset is along its normal: take that, exactly
             along = np.array([m.xs[j + 1] - m.xs[j], m.ys[j + 1] - m.ys[j]])
             normal = np.array([-along[1], along[0]]) / math.hypot(along[0], along[1])
         pos[p] = nearest + m.radius * normal

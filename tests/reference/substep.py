@@ -35,6 +35,11 @@ One substep, in this order:
    point's fraction along the side) so that the contact point moves by the excess depth; then
    the contact point's closing speed stops and its sliding is cut by Coulomb friction, the
    velocity changes shared the same way.
+
+Step 5 follows the documented model where it is, physically, doubtful: a vertex inside the
+robot is pushed out through every side it is deep enough behind, not only the shallowest,
+and the share ignores the ends' masses (a torque about the contact point). The oracle checks
+the kernel's arithmetic; the two expected failures in tests/test_contact.py pin the physics.
 """
 
 from __future__ import annotations

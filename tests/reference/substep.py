@@ -27,19 +27,15 @@ One substep, in this order:
    normal is the direction of the push, whichever segment it belongs to). If it was moving
    into the ground along that normal, that motion stops and its sliding speed is cut by up
    to mu times the normal speed it lost.
-5. Sides, thickened by r: each terrain vertex (left to right) against each outer side (in
-   order): if it lies between the side's ends, behind the thickened side by more than
-   ``max_peak_depth`` - CONTACT_TOLERANCE and less than MAX_SIDE_DEPTH (measured from the
-   side itself), both ends touch; if deeper than ``max_peak_depth`` the side
-   moves along its normal, the ends sharing the move as (1 - lam, lam) (lam: the contact
-   point's fraction along the side) so that the contact point moves by the excess depth; then
-   the contact point's closing speed stops and its sliding is cut by Coulomb friction, the
-   velocity changes shared the same way.
-
-Step 5 follows the documented model where it is, physically, doubtful: a vertex inside the
-robot is pushed out through every side it is deep enough behind, not only the shallowest,
-and the share ignores the ends' masses (a torque about the contact point). The oracle checks
-the kernel's arithmetic; the two expected failures in tests/test_contact.py pin the physics.
+5. Sides, thickened by r: each terrain vertex (left to right) against the outer sides: of the
+   sides it lies between the ends of, behind the thickened side by more than
+   -CONTACT_TOLERANCE and less than MAX_SIDE_DEPTH (measured from the side itself), the
+   shallowest (the first in order among equals) is its side; if it is more than
+   ``max_peak_depth`` - CONTACT_TOLERANCE deep there, both the side's ends touch; if deeper than ``max_peak_depth`` the side moves along its normal as a rigid
+   rod would under a push at the contact point (lam: the point's fraction along the side):
+   end a by (1 - lam) w_a, end b by lam w_b (w: inverse masses), scaled so that the contact
+   point moves by the excess depth; then the contact point's closing speed stops and its
+   sliding is cut by Coulomb friction, the velocity changes shared the same way.
 """
 
 from __future__ import annotations
@@ -278,6 +274,7 @@ def _ground(m, pos, vel, events):
 def _sides(m, pos, vel, contact, events):
     for i in range(1, len(m.xs) - 1):
         vertex = np.array([m.xs[i], m.ys[i]])
+        chosen = None
         for a, b in m.boundary:
             side = pos[b] - pos[a]
             length = math.hypot(side[0], side[1])
@@ -287,25 +284,33 @@ def _sides(m, pos, vel, contact, events):
                 continue
             outward = np.array([along[1], -along[0]])  # the robot is on the side's left
             depth = m.radius - (vertex - pos[a]) @ outward
-            if not m.peak_depth - CONTACT_TOLERANCE < depth < MAX_SIDE_DEPTH + m.radius:
+            if not -CONTACT_TOLERANCE < depth < MAX_SIDE_DEPTH + m.radius:
                 continue
-            contact[a] = contact[b] = True
-            if depth <= m.peak_depth:
-                events.add("side_touch")
-                continue
-            events.add("side_push")
-            share = np.array([1.0 - lam, lam])
-            norm = share @ share
-            # Moving the ends by share * t moves the contact point by (share @ share) t.
-            move = -outward * (depth - m.peak_depth) / norm
-            pos[a] += share[0] * move
-            pos[b] += share[1] * move
-            point_velocity = share[0] * vel[a] + share[1] * vel[b]
-            closing = point_velocity @ outward
-            if closing <= 0.0:
-                continue
-            sliding = point_velocity @ along
-            kept = math.copysign(max(0.0, abs(sliding) - m.friction * closing), sliding)
-            change = -(closing * outward + (sliding - kept) * along) / norm
-            vel[a] += share[0] * change
-            vel[b] += share[1] * change
+            if chosen is None or depth < chosen[0]:
+                chosen = (depth, a, b, lam)
+        if chosen is None or chosen[0] <= m.peak_depth - CONTACT_TOLERANCE:
+            continue
+        depth, a, b, lam = chosen
+        contact[a] = contact[b] = True
+        if depth <= m.peak_depth:
+            events.add("side_touch")
+            continue
+        events.add("side_push")
+        side = pos[b] - pos[a]
+        along = side / math.hypot(side[0], side[1])
+        outward = np.array([along[1], -along[0]])
+        share = np.array([(1.0 - lam) / m.mass[a], lam / m.mass[b]])
+        # Moving the ends by share * t moves the contact point by ((1 - lam, lam) @ share) t.
+        norm = (1.0 - lam) * share[0] + lam * share[1]
+        move = -outward * (depth - m.peak_depth) / norm
+        pos[a] += share[0] * move
+        pos[b] += share[1] * move
+        point_velocity = (1.0 - lam) * vel[a] + lam * vel[b]
+        closing = point_velocity @ outward
+        if closing <= 0.0:
+            continue
+        sliding = point_velocity @ along
+        kept = math.copysign(max(0.0, abs(sliding) - m.friction * closing), sliding)
+        change = -(closing * outward + (sliding - kept) * along) / norm
+        vel[a] += share[0] * change
+        vel[b] += share[1] * change

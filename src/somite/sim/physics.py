@@ -270,8 +270,8 @@ def side_contact(n_boundary, boundary, inv_mass, pos, vel, contact, xs, ys, n, f
     Together with :func:`ground_contact` (corners against terrain segments) this makes the
     robot's whole outline a solid surface: it rests on a crest with a side, not only with a
     point, as the original's rigid corner squares do. A vertex may sink ``max_peak_depth``
-    into a side before it is pushed out. A vertex behind several sides goes out through the
-    shallowest one only. The push and the impulses act at the contact point, a fraction
+    into a side before it is pushed out. A vertex behind several sides belongs to the shallowest
+    one only. The push and the impulses act at the contact point, a fraction
     ``lam`` along side a -> b, shared by a and b as a rigid side would share them (each end
     in proportion to how much it moves that point and to its inverse mass), so that they
     exert no torque about the contact point.
@@ -300,13 +300,13 @@ def side_contact(n_boundary, boundary, inv_mass, pos, vel, contact, xs, ys, n, f
                 continue
             # How deep the vertex is behind the side's outward normal (ey, -ex) / length.
             d = radius - ((tx - pos[a, 0]) * ey - (ty - pos[a, 1]) * ex) / math.sqrt(length2)
-            if d <= limit - CONTACT_TOLERANCE or d >= MAX_SIDE_DEPTH + radius:
+            if d <= -CONTACT_TOLERANCE or d >= MAX_SIDE_DEPTH + radius:
                 continue
             if side < 0 or d < depth:
                 side = q
                 depth = d
                 lam = at
-        if side < 0:
+        if side < 0 or depth <= limit - CONTACT_TOLERANCE:
             continue
         a = boundary[side, 0]
         b = boundary[side, 1]

@@ -31,8 +31,9 @@ One substep, in this order:
    sides it lies between the ends of, behind the thickened side by more than
    -CONTACT_TOLERANCE and less than MAX_SIDE_DEPTH (measured from the side itself), the
    shallowest (the first in order among equals) is its side; if it is more than
-   ``max_peak_depth`` - CONTACT_TOLERANCE deep there, both the side's ends touch; if deeper than ``max_peak_depth`` the side moves along its normal as a rigid
-   rod would under a push at the contact point (lam: the point's fraction along the side):
+   ``max_peak_depth`` - CONTACT_TOLERANCE deep there, both the side's ends touch; if deeper
+   than ``max_peak_depth`` the side moves along its normal as a rigid rod would under a push
+   at the contact point (lam: the point's fraction along the side):
    end a by (1 - lam) w_a, end b by lam w_b (w: inverse masses), scaled so that the contact
    point moves by the excess depth; then the contact point's closing speed stops and its
    sliding is cut by Coulomb friction, the velocity changes shared the same way.

@@ -6,11 +6,12 @@ that holds for both is a property of the physics, not of one chaotic trajectory.
 how far the candidate misses each target of the fidelity issue (rank correlations over all cells
 and per gait, best gait per terrain within 0.75-1.33x, no gait over 1.3x the fastest, tipping
 and stall rates at most 1.5x the reference's), so 0 meets them all. ``--check N`` then reruns
-the N best candidates of earlier output files with 16 substeps, for convergence in the step.
+the N best candidates of earlier output files (scored again, and with 16 substeps, for
+convergence in the time step).
 
     python benchmarks/calibrate.py search --range spring_hz=5,8 --range friction=0.8,2 \\
         --count 100 --seed 0 > candidates.jsonl
-    python benchmarks/calibrate.py check candidates.jsonl --best 5
+    python benchmarks/calibrate.py check candidates.jsonl --best 5 --defaults
 
 somite's defaults (``SimConfig``) came from such a search; BENCHMARKS.md gives the ranges, the
 chosen values and their fidelity figures.
@@ -39,6 +40,8 @@ from somite.sim.config import SimConfig  # noqa: E402
 TARGETS = {"worm-6x2": (0.55, 0.7), "biped-4x3": (0.4, 0.6)}
 """Rank correlation over all cells and per gait (hilly mean) that each shape must reach."""
 AMPLITUDES = (1.0, 0.999)
+CONVERGENCE = 0.8
+"""Per-gait rank correlation that 8 and 16 substeps must reach for each shape."""
 
 
 def miss(report: dict) -> float:
@@ -77,12 +80,22 @@ def summary(reports: list[dict]) -> dict:
     return out
 
 
-def score(reference: list[dict], options: dict) -> dict:
+def score(reference: list[dict], options: dict, converge: bool = False) -> dict:
+    """The mean miss over AMPLITUDES; with ``converge``, plus how far the per-gait rank
+    correlation between 8 and 16 substeps falls short of CONVERGENCE for each shape."""
     config = SimConfig().with_options(**options)
-    reports = [compare(run_somite(reference, config, amplitude=a), reference) for a in AMPLITUDES]
+    runs = [run_somite(reference, config, amplitude=a) for a in AMPLITUDES]
+    reports = [compare(run, reference) for run in runs]
     misses = [miss(r) for r in reports]
-    return {"score": round(float(np.mean(misses)), 4), "misses": [round(m, 4) for m in misses],
-            "options": options, "figures": summary(reports)}
+    row = {"score": round(float(np.mean(misses)), 4), "misses": [round(m, 4) for m in misses],
+           "options": options, "figures": summary(reports)}
+    if converge:
+        fine = run_somite(reference, config.with_options(substeps=2 * config.substeps))
+        agreement = convergence(runs[0], fine)
+        short = sum(max(0.0, CONVERGENCE - v["rank_per_gait"]) for v in agreement.values())
+        row["score"] = round(row["score"] + short, 4)
+        row["convergence"] = agreement
+    return row
 
 
 def search(args: argparse.Namespace) -> None:
@@ -95,15 +108,19 @@ def search(args: argparse.Namespace) -> None:
     reference = load_reference(args.reference)
     for _ in range(args.count):
         options = {k: round(float(rng.uniform(lo, hi)), 3) for k, (lo, hi) in ranges.items()}
-        print(json.dumps(score(reference, options)), flush=True)
+        print(json.dumps(score(reference, options, args.converge)), flush=True)
 
 
 def check(args: argparse.Namespace) -> None:
     rows = [json.loads(line) for path in args.files for line in open(path) if line.strip()]
     rows.sort(key=lambda row: row["score"])
     reference = load_reference(args.reference)
-    for row in rows[: args.best]:
-        config = SimConfig().with_options(**row["options"])
+    candidates = [row["options"] for row in rows[: args.best]]
+    if args.defaults:
+        candidates.append({})
+    for options in candidates:
+        row = score(reference, options)  # again: the code may have changed since the search
+        config = SimConfig().with_options(**options)
         coarse = run_somite(reference, config)
         fine = run_somite(reference, config.with_options(substeps=2 * config.substeps))
         fine_miss = miss(compare(fine, reference))
@@ -119,10 +136,13 @@ def main() -> None:
     p.add_argument("--range", action="append", required=True, metavar="NAME=LOW,HIGH")
     p.add_argument("--count", type=int, default=50)
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--converge", action="store_true",
+                   help="also score the agreement of 8 and 16 substeps")
     p.set_defaults(run=search)
     p = commands.add_parser("check", help="rerun the best candidates with half the time step")
     p.add_argument("files", nargs="+", type=Path)
     p.add_argument("--best", type=int, default=5)
+    p.add_argument("--defaults", action="store_true", help="also check SimConfig's defaults")
     p.set_defaults(run=check)
     args = parser.parse_args()
     args.run(args)

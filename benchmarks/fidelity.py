@@ -16,7 +16,7 @@ correlations of that run against the first (convergence in the time step). Singl
 chaotic in both simulators (README of the reference data), so look at rankings and rates.
 
     python benchmarks/fidelity.py [--reference PATH] [--option NAME=VALUE ...]
-                                  [--substeps-against 16]
+                                  [--substeps-against 16] [--amplitude 0.999]
 """
 
 from __future__ import annotations
@@ -174,14 +174,18 @@ def main() -> None:
     parser.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
                         help="a SimConfig option (repeatable)")
     parser.add_argument("--substeps-against", type=int, default=0, metavar="N")
+    parser.add_argument("--amplitude", type=float, default=1.0,
+                        help="of the sine gaits (0.999: somite's own chaos, as in the reference)")
     parser.add_argument("--cells", type=Path, help="also write every cell's numbers (CSV)")
     args = parser.parse_args()
     ref = load_reference(args.reference)
     config = SimConfig().with_options(**parse_options(args.option))
-    ours = run_somite(ref, config)
-    out = {"config": config.to_dict(), "fidelity": compare(ours, ref)}
+    ours = run_somite(ref, config, args.amplitude)
+    out = {"config": config.to_dict(), "amplitude": args.amplitude,
+           "fidelity": compare(ours, ref)}
     if args.substeps_against:
-        other = run_somite(ref, config.with_options(substeps=args.substeps_against))
+        other = run_somite(ref, config.with_options(substeps=args.substeps_against),
+                           args.amplitude)
         out["convergence"] = {"substeps": [config.substeps, args.substeps_against],
                               **convergence(ours, other)}
     if args.cells:

@@ -12,8 +12,10 @@ three hilly terrains; 5 frequencies x 5 phases) in somite and prints, per shape,
   the highest jump (lowest point above the ground) and the smallest signed voxel area ratio.
 
 With ``--substeps-against N`` it also reruns somite with N substeps and gives the rank
-correlations of that run against the first (convergence in the time step). Single cells are
-chaotic in both simulators (README of the reference data), so look at rankings and rates.
+correlations of that run against the first (convergence in the time step); with ``--chaos``,
+the same for amplitude 0.999 instead of 1 (somite's own chaos, to set beside the reference's).
+Single cells are chaotic in both simulators (README of the reference data), so look at
+rankings and rates.
 
     python benchmarks/fidelity.py [--reference PATH] [--option NAME=VALUE ...]
                                   [--substeps-against 16] [--amplitude 0.999]
@@ -41,6 +43,8 @@ from somite.tasks.locomotion import simulate
 SHAPES = {"worm-6x2": "worm", "biped-4x3": "biped"}
 DEFAULT_REFERENCE = Path(__file__).resolve().parents[2] / "shared/reference/vsr-sine-sweep.csv"
 STALL_FLAT, STALL_HILLY = 0.5, 0.1
+CHAOS_AMPLITUDE = 0.999
+"""The reference README's measure of a simulator's own chaos: the same grid at 0.999x."""
 FLOAT_OPTIONS = {"substeps": int, "touch_window": int, "velocity_window": int}
 
 
@@ -176,6 +180,8 @@ def main() -> None:
     parser.add_argument("--substeps-against", type=int, default=0, metavar="N")
     parser.add_argument("--amplitude", type=float, default=1.0,
                         help="of the sine gaits (0.999: somite's own chaos, as in the reference)")
+    parser.add_argument("--chaos", action="store_true",
+                        help="also rerun at amplitude 0.999 and rank that against the first run")
     parser.add_argument("--cells", type=Path, help="also write every cell's numbers (CSV)")
     args = parser.parse_args()
     ref = load_reference(args.reference)
@@ -188,6 +194,10 @@ def main() -> None:
                            args.amplitude)
         out["convergence"] = {"substeps": [config.substeps, args.substeps_against],
                               **convergence(ours, other)}
+    if args.chaos:
+        other = run_somite(ref, config, args.amplitude * CHAOS_AMPLITUDE)
+        out["chaos"] = {"amplitude": args.amplitude * CHAOS_AMPLITUDE,
+                        **convergence(ours, other)}
     if args.cells:
         with open(args.cells, "w", newline="") as f:
             writer = csv.DictWriter(f, fieldnames=list(ours[0]))

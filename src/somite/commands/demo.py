@@ -10,9 +10,9 @@ from ..experiments.runner import RunDirectory, evolve
 from .common import add_options
 from .evolve import progress_bar, summarise
 
-HELP = "Evolve a worm on flat ground for 30 generations, render its best gait, plot the run."
+HELP = "Evolve a worm on flat ground for 60 generations, render its best gait, plot the run."
 
-DEMO = {"shape": "worm", "population": 48, "generations": 30, "duration": 20.0, "seed": 0,
+DEMO = {"shape": "worm", "population": 48, "generations": 60, "duration": 20.0, "seed": 0,
         "terrain": "flat"}
 """Small enough for a laptop in under a minute; big enough to show clear progress. On flat
 ground, because at so small a budget the best of a generation on random hilly terrains is

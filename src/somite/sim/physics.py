@@ -4,7 +4,9 @@ Every function here works on one robot's arrays (points ``pos``, ``vel`` of shap
 is called from the episode loop of :mod:`somite.tasks.episode`; the batch kernel runs that loop
 for each robot on its own thread. The integrator is semi-implicit (symplectic) Euler: velocities
 first from the forces, then positions from the new velocities, then the hard constraints
-(length limits, terrain) act on positions and velocities (decisions.md).
+(length limits, each voxel's orientation, contact of the outline with the terrain) act on
+positions and velocities. The contact model and its fitted parameters: README, "The
+simulator"; BENCHMARKS.md, "Fidelity".
 """
 
 from __future__ import annotations
@@ -48,7 +50,8 @@ def integrate(n_points, n_springs, ends, strength, rest, min_length, mass, inv_m
               force, dxs, dys, dvx, dvy, fxs, fys, params):
     """One semi-implicit Euler step of springs, gravity and drag.
 
-    ``strength`` is the number of voxels owning each spring (1 or 2): parallel springs add up.
+    ``strength`` scales each spring's stiffness and damping: the number of voxels owning a side
+    (1 or 2: parallel springs add up), ``diagonal_stiffness`` for a diagonal.
     ``force`` must hold zeros on entry and holds zeros on exit; ``dxs`` .. ``fys`` are (S,)
     scratch, separate arrays so that the compiler knows they do not overlap.
     The springs go in three passes (gather, forces, scatter) so that the middle one has no
@@ -123,9 +126,10 @@ def push_apart(a, b, length, limit, dx, dy, inv_mass, pos, vel):
 
 @njit
 def enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel):
-    """Hard limit: no side or diagonal shorter than ``min_length_ratio`` of its rest length,
-    so no controller can collapse or invert a voxel. Run after the last substep of each
-    control step, so that what is sensed and recorded always obeys the limit."""
+    """Hard limit: no side shorter than ``min_side_ratio`` of its rest length, no diagonal
+    than ``min_diagonal_ratio``, so no controller can collapse a voxel (inversion is
+    :func:`keep_orientation`'s). Also run after the last substep of each control step, so that
+    what is sensed and recorded always obeys the limit."""
     for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]

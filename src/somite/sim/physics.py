@@ -283,6 +283,7 @@ def side_contact(n_boundary, boundary, inv_mass, pos, vel, contact, xs, ys, n, f
     limit = params.peak_depth
     mu = params.friction
     radius = params.radius
+    reach = MAX_SIDE_DEPTH + radius
     for i in range(first + 1, n - 1):
         tx = xs[i]
         if tx > hi_x + radius:
@@ -296,6 +297,12 @@ def side_contact(n_boundary, boundary, inv_mass, pos, vel, contact, xs, ys, n, f
         for q in range(n_boundary):
             a = boundary[q, 0]
             b = boundary[q, 1]
+            # A vertex that can count for this side lies in its bounding box grown by reach:
+            # two comparisons spare most sides the division and the square root.
+            if (tx < min(pos[a, 0], pos[b, 0]) - reach or tx > max(pos[a, 0], pos[b, 0]) + reach
+                    or ty < min(pos[a, 1], pos[b, 1]) - reach
+                    or ty > max(pos[a, 1], pos[b, 1]) + reach):
+                continue
             ex = pos[b, 0] - pos[a, 0]
             ey = pos[b, 1] - pos[a, 1]
             length2 = ex * ex + ey * ey
@@ -304,7 +311,7 @@ def side_contact(n_boundary, boundary, inv_mass, pos, vel, contact, xs, ys, n, f
                 continue
             # How deep the vertex is behind the side's outward normal (ey, -ex) / length.
             d = radius - ((tx - pos[a, 0]) * ey - (ty - pos[a, 1]) * ex) / math.sqrt(length2)
-            if d <= -CONTACT_TOLERANCE or d >= MAX_SIDE_DEPTH + radius:
+            if d <= -CONTACT_TOLERANCE or d >= reach:
                 continue
             if side < 0 or d < depth:
                 side = q

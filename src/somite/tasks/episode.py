@@ -19,7 +19,13 @@ from .._jit import njit
 from ..brain.kernels import graph_step
 from ..brain.openloop import sine_actuation, table_actuation
 from ..sim.config import CONTROL_HZ
-from ..sim.physics import enforce_min_lengths, ground_height, set_rest_lengths, substep
+from ..sim.physics import (
+    enforce_min_lengths,
+    ground_height,
+    segment_near,
+    set_rest_lengths,
+    substep,
+)
 from ..sim.robot import ground_view, new_scratch, robot_view
 from ..sim.sensors import angle_mode, lidar_rays, sense, update_histories, voxel_state
 
@@ -119,15 +125,19 @@ def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
 
 
 @njit
-def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, guess, params,
+def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, segment, params,
              out):
-    """Update the episode's diagnostics ``out`` (D_*) with control step ``k``."""
+    """Update the episode's diagnostics ``out`` (D_*) with control step ``k``; ``segment``
+    (P + 1,) holds a terrain segment near each corner (updated) and near the robot."""
     if k <= SETTLE_STEPS:
         return
     gap = np.inf
     radius = params.radius
     for p in range(n_points):
-        gap = min(gap, pos[p, 1] - radius - ground_height(xs, ys, n_terrain, pos[p, 0], guess))
+        # The segment under a corner is where the next search starts: a short walk.
+        i = segment_near(xs, n_terrain, pos[p, 0], segment[p])
+        segment[p] = i
+        gap = min(gap, pos[p, 1] - radius - ground_height(xs, ys, n_terrain, pos[p, 0], i))
     total = vx = vy = 0.0
     for p in range(n_points):
         total += mass[p]
@@ -138,7 +148,7 @@ def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, guess
     if k > params.transient_steps and tilt > 90.0:
         out[D_FLIPPED] += 1.0
     out[D_MAX_GAP] = max(out[D_MAX_GAP], gap)
-    height = cy - ground_height(xs, ys, n_terrain, cx, guess)
+    height = cy - ground_height(xs, ys, n_terrain, cx, segment[n_points])
     out[D_MAX_COM_HEIGHT] = max(out[D_MAX_COM_HEIGHT], height)
     out[D_MAX_COM_SPEED] = max(out[D_MAX_COM_SPEED], speed)
 
@@ -234,7 +244,7 @@ def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
         near = scratch.segment[n_points]
         tilt = _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels)
         _observe(k, n_points, mass, pos, vel, cx, cy, tilt, ground.xs, ground.ys, ground.n,
-                 near, params, diagnostics)
+                 scratch.segment, params, diagnostics)
         update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels, touch_hist,
                          vel_hist, params)
         sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,

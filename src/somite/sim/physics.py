@@ -360,6 +360,12 @@ def side_contact(n_boundary, boundary, inv_mass, pos, vel, contact, xs, ys, n, f
 
 
 @njit(inline="always")
+def voxel_corners(corners, v):
+    """Point indices of voxel ``v``'s corners: SW, SE, NE, NW (counter-clockwise)."""
+    return corners[v, 0], corners[v, 1], corners[v, 2], corners[v, 3]
+
+
+@njit(inline="always")
 def keep_orientation(n_voxels, corners, min_area, inv_mass, pos, vel):
     """No voxel turns inside out: each voxel's signed area stays at least ``min_area``.
 
@@ -368,10 +374,7 @@ def keep_orientation(n_voxels, corners, min_area, inv_mass, pos, vel):
     mass, to restore ``min_area``, and the corners' shrinking rate along it is removed.
     """
     for v in range(n_voxels):
-        sw = corners[v, 0]
-        se = corners[v, 1]
-        ne = corners[v, 2]
-        nw = corners[v, 3]
+        sw, se, ne, nw = voxel_corners(corners, v)
         # Twice the signed area: the cross product of the diagonals.
         d1x = pos[ne, 0] - pos[sw, 0]
         d1y = pos[ne, 1] - pos[sw, 1]

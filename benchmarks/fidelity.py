@@ -9,7 +9,8 @@ three hilly terrains; 5 frequencies x 5 phases) in somite and prints, per shape,
 - ``fastest_ratio``: somite's fastest cell over the reference's fastest cell of the shape;
 - pathology rates in both simulators: tipping past 90 degrees, stalls (a gait that does at least
   0.5 m/s on flat but under 0.1 m/s on a hilly terrain, over the hilly episodes of such gaits),
-  the highest jump (lowest point above the ground) and the smallest signed voxel area ratio.
+  the highest and the median jump (lowest point above the ground), the highest centre of mass
+  above the ground, its top speed, and the smallest signed voxel area ratio.
 
 With ``--substeps-against N`` it also reruns somite with N substeps and gives the rank
 correlations of that run against the first (convergence in the time step); with ``--chaos``,
@@ -37,7 +38,13 @@ from somite.brain.controllers import Sine
 from somite.sim.body import Body
 from somite.sim.config import SimConfig
 from somite.sim.terrain import parse_terrain
-from somite.tasks.episode import D_FLIPPED, D_MAX_GAP, D_MAX_TILT
+from somite.tasks.episode import (
+    D_FLIPPED,
+    D_MAX_COM_HEIGHT,
+    D_MAX_COM_SPEED,
+    D_MAX_GAP,
+    D_MAX_TILT,
+)
 from somite.tasks.locomotion import simulate
 
 SHAPES = {"worm-6x2": "worm", "biped-4x3": "biped"}
@@ -53,7 +60,7 @@ def load_reference(path: Path) -> list[dict]:
         rows = list(csv.DictReader(f))
     for row in rows:
         for key in ("freq", "phase", "vx", "max_abs_tilt_deg", "flipped_frac", "max_air_gap",
-                    "min_quad_ratio"):
+                    "max_com_height", "max_com_speed", "min_quad_ratio"):
             row[key] = float(row[key])
     return rows
 
@@ -80,6 +87,8 @@ def run_somite(rows: list[dict], config: SimConfig, amplitude: float = 1.0) -> l
             "max_abs_tilt_deg": float(d[D_MAX_TILT]),
             "flipped_frac": float(d[D_FLIPPED]) / scored,
             "max_air_gap": float(d[D_MAX_GAP]),
+            "max_com_height": float(d[D_MAX_COM_HEIGHT]),
+            "max_com_speed": float(d[D_MAX_COM_SPEED]),
             "min_quad_ratio": float(trace.min_area[b]),
         })
     return result
@@ -115,6 +124,9 @@ def pathologies(rows: list[dict]) -> dict:
         "stall_episodes": episodes,
         "stall_rate": stalls / episodes if episodes else 0.0,
         "max_jump": max(r["max_air_gap"] for r in rows),
+        "median_jump": float(np.median([r["max_air_gap"] for r in rows])),
+        "max_com_height": max(r["max_com_height"] for r in rows),
+        "max_com_speed": max(r["max_com_speed"] for r in rows),
         "min_signed_area_ratio": min(r["min_quad_ratio"] for r in rows),
         "negative_area_episodes": sum(r["min_quad_ratio"] < 0 for r in rows),
     }

@@ -16,10 +16,10 @@ import time
 import numpy as np
 
 from somite.brain.compile import compile_genome
-from somite.evolution.config import resolve
-from somite.evolution.ea import _training_terrain, statistics, tournament, truncate
+from somite.evolution.ea import statistics, tournament, truncate
 from somite.evolution.operators import mutate
-from somite.experiments.runner import RunDirectory, RunState, evolve
+from somite.experiments.config import resolve
+from somite.experiments.runner import RunDirectory, evolve
 from somite.sim.system import compile_system
 from somite.tasks.locomotion import compile_controllers, outcomes, run
 
@@ -33,16 +33,17 @@ def main() -> dict:
     config = resolve({"shape": args.shape, "population": args.population, "generations": 30})
     with tempfile.TemporaryDirectory() as folder:
         # A population that has evolved a little, so genomes are not all minimal.
-        state = evolve(config, f"{folder}/warm")
+        ea = evolve(config, f"{folder}/warm")
         run_dir = RunDirectory(f"{folder}/warm")
-        body = state.population.genomes[0].body
-        operators = config.operators()
-        rng = state.rng
-        sim = config.sim()
+        body = ea.body
+        operators = config.ga.variation()
+        rng, rng_evaluation = ea.rng_variation, ea.rng_evaluation
+        task = config.task()
+        sim = task.sim
         times = {k: [] for k in ("select_and_mutate", "terrains", "compile_genomes",
                                  "compile_batch", "kernel", "outcomes", "merge_and_truncate",
                                  "log_and_bests")}
-        population = state.population
+        population = ea.population
         for _ in range(args.generations):
             mark = time.perf_counter()
 
@@ -53,12 +54,12 @@ def main() -> dict:
                 mark = now
 
             children = []
-            for _ in range(config.population):
+            for _ in range(config.ga.population):
                 parent = population.genomes[tournament(population.fitness, 5, rng)]
                 children.append(mutate(parent, rng, operators)[0])
             lap("select_and_mutate")
-            terrains = [_training_terrain(int(s)) for s in rng.integers(0, 10000, len(children))]
-            seeds = rng.integers(0, 2**32, len(children))
+            terrains = task.terrains.sample(rng_evaluation, len(children))
+            seeds = rng_evaluation.integers(0, 2**32, len(children))
             lap("terrains")
             arrays = [compile_genome(g) for g in children]
             lap("compile_genomes")
@@ -70,14 +71,15 @@ def main() -> dict:
             fitness = np.array([o.velocity for o in outcomes(trace, sim)])
             lap("outcomes")
             merged = np.concatenate([population.fitness, fitness])
-            kept = truncate(merged, config.population, rng)
+            kept = truncate(merged, config.ga.population, rng)
             genomes = population.genomes + children
             origins = population.origins + ["mutate"] * len(children)
             population = type(population)([genomes[i] for i in kept], merged[kept],
                                           [origins[i] for i in kept])
             lap("merge_and_truncate")
-            stats = statistics(population, fitness)
-            run_dir.append(RunState(0, 0, 0.0, population, rng), stats)
+            row = {"generation": 0, "evaluations": 0, "elapsed_seconds": 0.0,
+                   **statistics(population, fitness), "validation_velocity": None}
+            run_dir.append(row, population.genomes[population.best()])
             lap("log_and_bests")
     median = {k: float(np.median(v)) for k, v in times.items()}
     total = sum(median.values())

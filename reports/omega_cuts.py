@@ -19,10 +19,10 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import mannwhitneyu
 
-from somite.evolution.config import resolve
+from somite.experiments.config import resolve
 from somite.experiments.runner import evolve
 from somite.modules.module import cut
-from somite.modules.partition import Partition
+from somite.sim.partition import Partition
 
 
 def main() -> None:

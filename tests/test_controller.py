@@ -9,7 +9,8 @@ import pytest
 
 from somite.bench import random_graph
 from somite.brain.controllers import GraphArrays
-from somite.brain.kernels import ACTUATOR, HIDDEN, SENSOR, graph_step
+from somite.brain.kernels import graph_step
+from somite.brain.kinds import ACTUATOR, HIDDEN, SENSOR
 from somite.sim.terrain import hilly
 from somite.tasks.locomotion import simulate
 

@@ -14,11 +14,10 @@ from somite.modules.discovery import (
     connected_sets,
     discover,
     partition_around,
-    partition_from_spec,
     rank_candidates,
 )
-from somite.modules.partition import Partition
 from somite.sim.body import Body, Shape, is_connected
+from somite.sim.partition import Partition
 
 from .conftest import expect_error
 
@@ -202,7 +201,7 @@ def test_discover_command(tmp_path, capsys):
     assert len(rows) == 151 and rows[0]["voxels"] == "2,0 3,0 2,1 3,1"
     assert rows[0]["rank"] == "1" and float(rows[0]["compactness"]) == 1.0
     # The written partition is usable wherever a partition spec is.
-    again = partition_from_spec(str(out / "partition.json"), Shape.parse("worm"))
+    again = Partition.parse(str(out / "partition.json"), Shape.parse("worm"))
     assert again == Partition.from_grid("BBAACC/BBAACC", "worm")
 
 
@@ -225,7 +224,20 @@ def test_partition_file_of_unknown_version(tmp_path):
     path = tmp_path / "p.json"
     data = {"format": "somite-partition", "version": 9, "grid": "AAABBB/AAABBB"}
     path.write_text(json.dumps(data))
-    expect_error("partition", lambda: partition_from_spec(str(path), Shape.parse("worm")))
+    expect_error("partition", lambda: Partition.parse(str(path), Shape.parse("worm")))
+
+
+def test_partition_file_round_trip_keeps_labels(tmp_path):
+    legs = Partition.preset("biped-legs", "biped")
+    path = legs.save(tmp_path / "legs.json", note="kept")
+    assert json.loads(path.read_text())["note"] == "kept"
+    assert Partition.load(path) == Partition.parse(str(path), "biped") == legs
+    assert Partition.load(path).modules == ("left-leg", "right-leg", "torso")
+    expect_error("partition", lambda: Partition.parse(str(path), "worm"))  # another shape
+    data = legs.to_dict()
+    del data["modules"]["torso"]
+    path.write_text(json.dumps(data))
+    expect_error("partition", lambda: Partition.load(path))  # voxels without a module
 
 
 def test_hidden_nodes_count_in_their_voxel():

@@ -9,7 +9,7 @@ import pytest
 
 from somite.brain.compile import compile_genome
 from somite.brain.genome import Edge, Genome, Node, next_id
-from somite.brain.kernels import ACTUATOR, HIDDEN, SENSOR
+from somite.brain.kinds import ACTUATOR, HIDDEN, SENSOR
 from somite.errors import SomiteError
 from somite.evolution.operators import initial_genome
 from somite.sim.body import Body

@@ -18,9 +18,9 @@ from somite.modules.library import (
     provenance_of,
 )
 from somite.modules.module import cut
-from somite.modules.partition import Partition
 from somite.sim.body import Body
 from somite.sim.config import SimConfig
+from somite.sim.partition import Partition
 from somite.tasks.validation import evaluate, validation_terrains
 
 from .conftest import evolved, expect_error

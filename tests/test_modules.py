@@ -11,11 +11,11 @@ from somite.brain.genome import Edge, Genome, Node
 from somite.cli import main
 from somite.evolution.operators import initial_genome, prune
 from somite.modules.module import CutRatio, Module, cut, pooled
-from somite.modules.partition import Partition
-from somite.modules.reassembly import Take, reassemble
+from somite.modules.reassembly import Take, paper_takes, reassemble, receiver_for
 from somite.modules.transfer import rho, transferability
 from somite.sim.body import Body
 from somite.sim.config import SimConfig
+from somite.sim.partition import Partition
 from somite.tasks.validation import evaluate, validation_terrains
 
 from .conftest import evolved, expect_error
@@ -192,6 +192,33 @@ def test_homogeneous_worm_back_from_donor1_front_from_donor2():
     assert [r.eta_num for r in result.ratios] == [
         cut(d1, halves).ratio("back").eta_num, cut(d2, halves).ratio("front").eta_num
     ]
+
+
+def test_paper_default_and_report_number_the_donors_as_given(monkeypatch):
+    import somite.modules.reassembly as reassembly
+
+    d1, d2 = evolved("worm", 21), evolved("worm", 22)
+    halves = Partition.preset("worm-halves", "worm")
+    donors = [(d1, halves), (d2, halves)]
+    body, receiver = receiver_for(donors)
+    assert body == d1.body and receiver == halves
+    calls = []
+    monkeypatch.setattr(reassembly, "cut", lambda g, p: calls.append(g) or cut(g, p))
+    report = reassemble(body, receiver, paper_takes(receiver, donors), donors).to_dict()
+    assert calls == [d1, d2]  # each donor cut once, the report included
+    rows = [(m["module"], m["donor"], m["donor_module"]) for m in report["modules"]]
+    assert rows == [("back", 1, "back"), ("front", 2, "front")]
+    assert report["donors"][1]["cut"] == cut(d2, halves).total.to_dict()
+    assert report["kind"] == "homogeneous" and report["receiver"]["partition"] == "AAABBB/AAABBB"
+    # Numbers follow the donors given, not the order of use; an unused donor is still listed.
+    def numbers(takes):
+        report = reassemble(body, receiver, takes, donors).to_dict()
+        return [m["donor"] for m in report["modules"]], len(report["donors"])
+
+    assert numbers({"back": (d2, halves, "back"), "front": (d1, halves, "front")}) == ([2, 1], 2)
+    assert numbers({"back": (d1, halves, "back"), "front": (d1, halves, "front")}) == ([1, 1], 2)
+    other = Partition.from_grid("AABBBB/AABBBB", "worm")
+    expect_error("donor2", lambda: paper_takes(receiver, [(d1, halves), (d2, other)]))
 
 
 # -- heterogeneous reassembly ---------------------------------------------------------------------
@@ -375,11 +402,8 @@ def test_reassemble_command_heterogeneous_take(tmp_path, donor_files):
     torso = [m for m in report["modules"] if m["module"] == "torso"][0]
     assert (torso["donor"], torso["donor_module"], torso["voxels_dropped"]) == (2, "front", 2)
     assert "validation" not in report
-    # The picture is drawn when somite.viz.brain.draw_brain exists, else skipped with a note.
-    if report["draw"] == "reassembled.png":
-        assert (out / "reassembled.png").stat().st_size > 0
-    else:
-        assert report["draw"].startswith("skipped") and not (out / "reassembled.png").exists()
+    assert report["draw"] == "reassembled.png"
+    assert (out / "reassembled.png").read_bytes().startswith(b"\x89PNG")
 
 
 @pytest.mark.parametrize(

@@ -20,8 +20,8 @@ from somite.evolution.operators import (
     remove_edge,
     remove_node,
 )
-from somite.modules.partition import Partition
 from somite.sim.body import Body, Shape
+from somite.sim.partition import Partition
 
 # Sensors 0 (voxel (0,0)) and 2 (voxel (1,0)); actuators 1 and 3.
 TINY_BODY = Body.build("2x1", "area")
@@ -243,13 +243,13 @@ def test_add_node_without_candidates_returns_an_equal_copy():
     assert add_node(lonely, np.random.default_rng(0)) == lonely
 
 
-def placements(worm, placement, n=600):
+def placements(worm, placement, n=600, omega=2.0):
     """(u, v, voxel of w) for n add_node draws on the worm with the halves partition."""
     partition = Partition.preset("worm-halves", worm.body.shape)
     rng = np.random.default_rng(12)
     out = []
     for _ in range(n):
-        child = add_node(worm, rng, partition, 1.0, placement)
+        child = add_node(worm, rng, partition, omega, placement)
         into, out_edge = child.edges[-2:]
         u, v, w = worm.nodes[into.src], worm.nodes[out_edge.dst], child.nodes[-1]
         out.append((partition.module_of(u.x, u.y), partition.module_of(v.x, v.y), (w.x, w.y)))
@@ -271,6 +271,38 @@ def test_uniform_placement_ignores_modules(worm):
     partition, draws = placements(worm, "uniform")
     outside = [mu != partition.module_of(*w) for mu, mv, w in draws if mu == mv]
     assert 0.35 < np.mean(outside) < 0.65
+
+
+@pytest.mark.parametrize("shape, name", [("worm", "worm-halves"), ("biped", "biped-legs")])
+def test_omega_one_places_new_nodes_at_the_neutral_rate(shape, name):
+    """omega = 1 is no bias at all: a node added between two nodes of one module lands in that
+    module only as often as the module's share of the body's voxels, and on every voxel alike."""
+    genome = initial_genome(Body.build(shape), np.random.default_rng(3))
+    partition = Partition.preset(name, genome.body.shape)
+    voxels = genome.body.shape.voxels
+    rng = np.random.default_rng(15)
+    inside, expected_inside, landed = 0, 0.0, Counter()
+    for _ in range(3000):
+        child = add_node(genome, rng, partition, 1.0, "module")
+        into, out = child.edges[-2:]
+        u, v, w = genome.nodes[into.src], genome.nodes[out.dst], child.nodes[-1]
+        shared = partition.module_of(u.x, u.y)
+        if shared != partition.module_of(v.x, v.y):
+            continue
+        inside += partition.module_of(w.x, w.y) == shared
+        expected_inside += len(partition.voxels_of(shared)) / len(voxels)
+        landed[(w.x, w.y)] += 1
+    n = sum(landed.values())
+    assert n > 500
+    assert chisquare([inside, n - inside], [expected_inside, n - expected_inside]).pvalue > 1e-3
+    assert chisquare([landed[xy] for xy in voxels]).pvalue > 1e-3
+
+
+def test_omega_one_with_a_partition_draws_as_without(worm):
+    partition = Partition.preset("worm-halves", worm.body.shape)
+    for seed in range(20):
+        plain = add_node(worm, np.random.default_rng(seed))
+        assert add_node(worm, np.random.default_rng(seed), partition, 1.0, "module") == plain
 
 
 def test_omega_biases_add_node_pairs(worm):

@@ -9,8 +9,8 @@ import numpy as np
 
 from somite.brain.genome import Genome
 from somite.cli import main
-from somite.evolution.config import resolve
 from somite.evolution.operators import initial_genome
+from somite.experiments.config import resolve
 from somite.experiments.runner import evolve
 from somite.sim.body import Body
 from somite.sim.config import SimConfig

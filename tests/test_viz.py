@@ -24,12 +24,12 @@ from somite.brain.genome import Edge, Genome, body_table
 from somite.cli import main
 from somite.errors import SomiteError
 from somite.evolution.operators import initial_genome
-from somite.modules.partition import Partition
 from somite.sim.body import Body
 from somite.sim.config import VOXEL_SIDE, preset
+from somite.sim.partition import Partition
 from somite.viz.brain import bilinear, brain_drawing, draw_brain
 from somite.viz.frame import GRID, SKY, area_colour, frame_steps, render_frame
-from somite.viz.plots import curve, plot_runs, stats_path
+from somite.viz.plots import curve, plot_runs, plot_validation, stats_path
 from somite.viz.recording import lidar_segments
 from somite.viz.strip import render_strip
 from somite.viz.video import record_episode, render_episode, write_video
@@ -236,7 +236,7 @@ def fake_run(root, name, config, final_velocity, n_generations=4, drop_log=False
         v = final_velocity * (g + 1) / n_generations
         size = 50 + 3 * g
         rows.append(f"{g},{96 * (g + 1)},{0.5 * g},{v},{v / 2},{v / 4},{size // 2},"
-                    f"{size - size // 2},{size},{size - 4},add_edge,0")
+                    f"{size - size // 2},{size},{size - 4},add_edge,0,{v / 3 if g % 2 else ''}")
     (path / "log.csv").write_text("\n".join(rows) + "\n")
     return path
 
@@ -298,6 +298,23 @@ def test_curves_align_runs_on_generations(tmp_path):
     assert generations.tolist() == [0, 1, 2, 3]
     assert median.tolist() == pytest.approx([0.75, 1.5, 3.0, 4.0])
     assert std.tolist() == pytest.approx([0.25, 0.5, 0.0, 0.0])
+
+
+def test_validation_velocity_is_read_where_logged_and_old_logs_still_load(tmp_path):
+    run = load_run(fake_run(tmp_path, "a", {"shape": "worm"}, 4.0, n_generations=4))
+    np.testing.assert_array_equal(run.log["validation_velocity"], [np.nan, 2 / 3, np.nan, 4 / 3])
+    old = fake_run(tmp_path, "old", {"shape": "worm"}, 4.0, n_generations=2)
+    lines = (old / "log.csv").read_text().splitlines()
+    (old / "log.csv").write_text("\n".join(line.rsplit(",", 1)[0] for line in lines) + "\n")
+    assert np.isnan(load_run(old).log["validation_velocity"]).all()
+    assert load_run(old).final() == 4.0
+    plot_runs([tmp_path / "a", old], tmp_path / "fig.png", group_by="shape", kind="curves")
+    from matplotlib.figure import Figure
+
+    axes = Figure().subplots()
+    plot_validation(axes, {"worm": [run], "old": [load_run(old)]})
+    [line] = axes.get_lines()  # the old run has nothing to draw
+    assert line.get_xdata().tolist() == [1, 3] and "validation" in line.get_label()
 
 
 # -- the command line ---------------------------------------------------------------------------

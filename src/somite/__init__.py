@@ -2,6 +2,60 @@
 
 An implementation of Pigozzi & Medvet, "Evolving Modularity in Soft Robots through an Embodied
 and Self-Organizing Neural Controller" (Artificial Life, 2022).
+
+The public API (see the README's "Python API")::
+
+    import somite
+    body = somite.Body.build("worm")
+    task = somite.Locomotion(terrain="hilly-1-10-rnd", duration=30.0)
+    ea = somite.GraphEA(body, population=96, seed=0)
+    for _ in range(100):
+        genomes = ea.ask()
+        ea.tell(genomes, task.evaluate(genomes, rng=ea.rng_evaluation))
+    task.validate(ea.best)                  # v_x [m/s] on the 10 validation terrains, (10,)
+    somite.simulate(ea.best, terrain="flat")  # an Outcome
+
+Names are loaded on first use, so ``import somite`` (and the command line) stays quick.
 """
 
+from __future__ import annotations
+
+from importlib import import_module
+
 __version__ = "0.1.0"
+
+_EXPORTS = {
+    "Body": "somite.sim.body",
+    "Shape": "somite.sim.body",
+    "SimConfig": "somite.sim.config",
+    "Terrain": "somite.sim.terrain",
+    "parse_terrain": "somite.sim.terrain",
+    "Genome": "somite.brain.genome",
+    "GAConfig": "somite.evolution.config",
+    "OperatorConfig": "somite.evolution.operators",
+    "GraphEA": "somite.evolution.ea",
+    "Locomotion": "somite.tasks.task",
+    "simulate": "somite.tasks.task",
+    "Outcome": "somite.tasks.locomotion",
+    "TerrainDistribution": "somite.tasks.distributions",
+    "mean_velocity": "somite.tasks.velocity",
+    "rho": "somite.tasks.velocity",
+    "RunConfig": "somite.experiments.config",
+    "resolve": "somite.experiments.config",
+    "evolve": "somite.experiments.runner",
+    "SomiteError": "somite.errors",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'somite' has no attribute {name!r}")
+    value = getattr(import_module(_EXPORTS[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_EXPORTS])

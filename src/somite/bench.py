@@ -15,7 +15,7 @@ import numba
 import numpy as np
 
 from .brain.controllers import GraphArrays
-from .brain.kernels import ACTUATOR, HIDDEN, SENSOR
+from .brain.kinds import ACTUATOR, HIDDEN, KIND_DTYPE, SENSOR
 from .sim.body import Body
 from .sim.config import SimConfig
 from .sim.system import compile_system
@@ -42,7 +42,7 @@ def random_graph(body: Body, size: int, rng: np.random.Generator) -> GraphArrays
             np.full(n_voxels, ACTUATOR),
             np.full(n_hidden, HIDDEN),
         ]
-    ).astype(np.int32)
+    ).astype(KIND_DTYPE)
     ref = np.concatenate(
         [np.arange(n_readings), np.arange(n_voxels), np.full(n_hidden, -1)]
     ).astype(np.int32)

@@ -27,6 +27,8 @@ from ..errors import bad
 from ..experiments.logfile import LOG_COLUMNS
 
 NUMERIC_COLUMNS = tuple(c for c in LOG_COLUMNS if c != "best_operator")
+OPTIONAL_COLUMNS = ("validation_velocity",)
+"""Columns that logs written before they existed lack (read as NaN)."""
 
 
 @dataclass(frozen=True)
@@ -88,7 +90,8 @@ def _read_log(path: Path) -> dict[str, np.ndarray]:
     try:
         with open(path, newline="", encoding="utf-8") as handle:
             reader = csv.DictReader(handle)
-            missing = [c for c in NUMERIC_COLUMNS if c not in (reader.fieldnames or ())]
+            missing = [c for c in NUMERIC_COLUMNS
+                       if c not in (reader.fieldnames or ()) and c not in OPTIONAL_COLUMNS]
             if missing:
                 raise bad("log", str(path), f"lacks the columns {missing}")
             # A row cut short by a run still writing has None cells: stop before it.
@@ -98,7 +101,8 @@ def _read_log(path: Path) -> dict[str, np.ndarray]:
     if not rows:
         raise bad("log", str(path), "has no generation rows yet")
     return {
-        c: np.array([_number(row[c]) for row in rows], dtype=np.float64) for c in NUMERIC_COLUMNS
+        c: np.array([_number(row.get(c)) for row in rows], dtype=np.float64)
+        for c in NUMERIC_COLUMNS
     }
 
 

@@ -9,16 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import genome as _genome
-from . import kernels
 from .controllers import GraphArrays
 from .genome import Genome, body_table
-
-# The genome numbers kinds like the kernel, so compiling copies codes instead of mapping them.
-if (_genome.SENSOR, _genome.HIDDEN, _genome.ACTUATOR) != (
-    kernels.SENSOR, kernels.HIDDEN, kernels.ACTUATOR
-):
-    raise ImportError("somite.brain.genome and somite.brain.kernels number node kinds differently")
+from .kinds import ACTUATOR, SENSOR
 
 
 def compile_genome(genome: Genome) -> GraphArrays:
@@ -32,17 +25,17 @@ def compile_genome(genome: Genome) -> GraphArrays:
     Returns
     -------
     GraphArrays
-        ``node_kind`` (N,) int32; ``node_ref`` (N,) int32: reading index for sensors, voxel index
-        for actuators, -1 for hidden nodes; ``src``, ``dst`` (E,) int32 node positions;
-        ``weight``, ``bias`` (E,) float64.
+        ``node_kind`` (N,) kind codes (:mod:`somite.brain.kinds`); ``node_ref`` (N,) int32:
+        reading index for sensors, voxel index for actuators, -1 for hidden nodes; ``src``,
+        ``dst`` (E,) int32 node positions; ``weight``, ``bias`` (E,) float64.
     """
     index = genome.index
     table = body_table(genome.body)
-    kind = index.kind.astype(np.int32)
+    kind = index.kind.copy()
     ref = np.where(
-        kind == kernels.SENSOR,
+        kind == SENSOR,
         table.first_reading[index.voxel] + index.slot,
-        np.where(kind == kernels.ACTUATOR, index.voxel, -1),
+        np.where(kind == ACTUATOR, index.voxel, -1),
     ).astype(np.int32)
     n_edges = len(genome.edges)
     weight = np.fromiter((e.weight for e in genome.edges), dtype=np.float64, count=n_edges)

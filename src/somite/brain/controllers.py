@@ -56,7 +56,7 @@ class Table:
 class GraphArrays:
     """A graph controller as flat arrays: node kinds and references, edges by node index."""
 
-    node_kind: np.ndarray  # (N,) int32 SENSOR / HIDDEN / ACTUATOR
+    node_kind: np.ndarray  # (N,) KIND_DTYPE codes SENSOR / HIDDEN / ACTUATOR
     node_ref: np.ndarray  # (N,) int32 reading (sensor) or voxel (actuator), -1 otherwise
     src: np.ndarray  # (E,) int32
     dst: np.ndarray  # (E,) int32

@@ -29,15 +29,11 @@ import numpy as np
 
 from .._io import write_atomic
 from ..errors import bad
-from ..sim.body import SENSOR_WIDTH, Body
+from ..sim.body import Body
+from .kinds import ACTUATOR, HIDDEN, KIND_CODE, KIND_DTYPE, NODE_KINDS, SENSOR
 
 FORMAT = "somite-genome"
 VERSION = 1
-
-NODE_KINDS = ("sensor", "hidden", "actuator")
-"""Node kinds; a kind's position here is its code in :attr:`GenomeIndex.kind`."""
-
-SENSOR, HIDDEN, ACTUATOR = 0, 1, 2
 
 
 @dataclass(frozen=True)
@@ -78,7 +74,7 @@ class BodyTable(NamedTuple):
 @functools.lru_cache(maxsize=64)
 def body_table(body: Body) -> BodyTable:
     """The reading table of ``body``; cached because every genome of a run shares one body."""
-    n_slots = tuple(sum(SENSOR_WIDTH[k] for k in kinds) for kinds in body.sensors)
+    n_slots = tuple(len(slots) for slots in body.slots)
     first = np.concatenate(([0], np.cumsum(n_slots)[:-1])).astype(np.int64)
     table = BodyTable(
         voxel_index={xy: i for i, xy in enumerate(body.shape.voxels)},
@@ -97,7 +93,7 @@ class GenomeIndex(NamedTuple):
     """A genome as arrays over node positions (N nodes, E edges), for operators and compiling."""
 
     ids: np.ndarray  # (N,) int64 node ids
-    kind: np.ndarray  # (N,) int8 SENSOR / HIDDEN / ACTUATOR
+    kind: np.ndarray  # (N,) KIND_DTYPE codes SENSOR / HIDDEN / ACTUATOR
     voxel: np.ndarray  # (N,) int64 position of the node's voxel in body.shape.voxels
     slot: np.ndarray  # (N,) int64 sensor slot, -1 for other nodes
     src: np.ndarray  # (E,) int64 node position of each edge's source
@@ -154,14 +150,14 @@ class Genome:
         return len(self.nodes)
 
     @property
-    def n_edges(self) -> int:
-        """|E|, the number of edges."""
-        return len(self.edges)
-
-    @property
     def size(self) -> int:
         """|G| = |V| + |E| (original-system.md section 4.1)."""
         return len(self.nodes) + len(self.edges)
+
+    @property
+    def n_edges(self) -> int:
+        """|E|, the number of edges."""
+        return len(self.edges)
 
     @property
     def position(self) -> dict[int, int]:
@@ -242,7 +238,6 @@ def next_id(genome: Genome) -> int:
 # Genomes are built on every mutation, so validation runs a vectorised check first; only when
 # that fails does the item-by-item check run, to say which field is wrong.
 
-_KIND_CODE = {kind: code for code, kind in enumerate(NODE_KINDS)}
 _NONE = type(None)
 
 
@@ -255,7 +250,7 @@ def _validate(nodes, edges, table: BodyTable) -> tuple[dict[int, int], GenomeInd
     src, dst = _check_edges(edges, position, kinds)
     return position, _frozen(GenomeIndex(
         ids=np.array([n.id for n in nodes], dtype=np.int64),
-        kind=np.array(kinds, dtype=np.int8),
+        kind=np.array(kinds, dtype=KIND_DTYPE),
         voxel=np.array(voxels, dtype=np.int64),
         slot=np.array(slots, dtype=np.int64),
         src=np.array(src, dtype=np.int64),
@@ -278,7 +273,7 @@ def _fast_index(nodes, edges, table: BodyTable):
     xs = [n.x for n in nodes]
     ys = [n.y for n in nodes]
     slots = [n.slot for n in nodes]
-    codes = [_KIND_CODE.get(n.kind) for n in nodes]
+    codes = [KIND_CODE.get(n.kind) for n in nodes]
     voxels = [table.voxel_index.get(xy) for xy in zip(xs, ys)]
     # Exact types: bools and floats hash like ints and would slip through the lookups.
     if not {*map(type, ids), *map(type, xs), *map(type, ys)} <= {int}:
@@ -288,7 +283,7 @@ def _fast_index(nodes, edges, table: BodyTable):
     position = dict(zip(ids, range(len(ids))))
     if len(position) != len(ids) or (ids and min(ids) < 0):
         return None
-    kind = np.array(codes, dtype=np.int8)
+    kind = np.array(codes, dtype=KIND_DTYPE)
     voxel = np.array(voxels, dtype=np.int64)
     slot = np.array([-1 if s is None else s for s in slots], dtype=np.int64)
     if not _nodes_cover_body(kind, voxel, slot, [s is None for s in slots], table):
@@ -354,8 +349,8 @@ def _check_nodes(nodes, table: BodyTable):
         if node.id in position:
             raise bad(f"nodes[{i}].id", node.id, "node ids must be unique")
         try:
-            kind = NODE_KINDS.index(node.kind)
-        except ValueError:
+            kind = KIND_CODE[node.kind]
+        except (KeyError, TypeError):
             raise bad(f"nodes[{i}].kind", node.kind, f"use one of {NODE_KINDS}") from None
         voxel = None
         if _is_int(node.x) and _is_int(node.y):

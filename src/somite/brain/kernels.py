@@ -10,8 +10,7 @@ from __future__ import annotations
 
 from .._jit import njit
 from .._math import sigmoid, tanh
-
-SENSOR, HIDDEN, ACTUATOR = 0, 1, 2
+from .kinds import HIDDEN, SENSOR
 
 
 @njit

@@ -6,8 +6,9 @@ import argparse
 import json
 from pathlib import Path
 
+from .._io import write_atomic
 from ..errors import bad
-from ..modules.library import assemble, list_library, parse_placement, write_atomic
+from ..modules.library import assemble, list_library, parse_placement
 from .common import add_simulation_options, simulation_config
 
 HELP = "Assemble a robot from library modules placed at grid offsets (NAME@X,Y)."
@@ -33,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
         raise bad("out", args.out, "exists and is not a folder")
     if args.evaluate < 0:
         raise bad("evaluate", args.evaluate, "must be 0 or more")
-    config = _sim_config(args) if args.evaluate else None
+    config = simulation_config(args) if args.evaluate else None
     library = list_library(args.library)
     placements = [
         parse_placement(text, library, f"place[{i}]") for i, text in enumerate(args.place)
@@ -55,21 +56,15 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _sim_config(args):
-
-    return simulation_config(args)
-
-
 def _evaluate(args, genome, config) -> dict:
     import math
 
-    import numpy as np
-
     from ..tasks.validation import evaluate, validation_terrains
+    from ..tasks.velocity import mean_velocity
 
     terrains = validation_terrains(args.evaluate)
     velocity = evaluate([genome], terrains, config, args.seed)[0]
-    mean = float(np.mean(velocity))
+    mean = mean_velocity(velocity)
     return {
         "genome": "assembled.json",
         "placements": list(args.place),

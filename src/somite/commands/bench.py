@@ -5,14 +5,14 @@ from __future__ import annotations
 import argparse
 
 from ..bench import bench
-from .common import finite_float, print_json
+from .common import add_options, print_json
 
 HELP = "Time the simulation kernel (96 random ~200-element controllers, hilly, 30 s); JSON."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robots", type=int, default=96, help="population size")
-    parser.add_argument("--duration", type=finite_float("duration"), default=30.0, help="[s]")
+    add_options(parser, "duration")
     parser.add_argument("--shapes", default="worm,biped", help="comma-separated shapes")
     parser.add_argument("--no-scaling", action="store_true", help="skip the scaling runs")
 

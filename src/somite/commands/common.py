@@ -31,6 +31,12 @@ def print_json(data) -> None:
     sys.stdout.write("\n")
 
 
+def add_genome(parser: argparse.ArgumentParser, name: str = "genome", role: str = "") -> None:
+    """A positional genome argument, read by :func:`load_genome`; ``role`` says whose it is."""
+    what = f"{role}: " if role else ""
+    parser.add_argument(name, help=f"{what}genome JSON, or a run directory (its best.json)")
+
+
 def load_genome(path: str):
     """A genome from a genome JSON file, or from a run directory's ``best.json``."""
     from pathlib import Path
@@ -58,19 +64,76 @@ def seed_int(text: str) -> int:
     return value
 
 
-def add_simulation_options(parser: argparse.ArgumentParser) -> None:
+DEFAULTS = {
+    "duration": 30.0,
+    "seed": 0,
+    "preset": "paper",
+    "shape": "worm",
+    "sensors": "paper",
+    "validation": 10,
+}
+"""The one default of each shared option; the library's defaults are the same values
+(``tests/test_cli.py`` checks that ``somite evolve`` records them)."""
+
+_SHARED = {
+    "duration": ({"type": finite_float("duration"), "metavar": "S"}, "episode length [s]"),
+    "seed": ({"type": seed_int}, "random seed (sensor noise; for evolve, the whole run)"),
+    "preset": ({}, "paper or original-code (decisions.md, two presets)"),
+    "shape": ({}, "biped, worm, WxH or rows like 1111/1001"),
+    "sensors": ({}, "sensor preset: paper, none, area or all"),
+    "validation": ({"type": int, "metavar": "N"}, "how many fixed validation terrains"),
+    "json": ({"action": "store_true"}, "print JSON"),
+    "quiet": ({"action": "store_true"}, "print nothing while running"),
+}
+
+
+def add_options(parser: argparse.ArgumentParser, *names: str, layered: str = "",
+                notes: dict[str, str] | None = None) -> None:
+    """Declare the shared options ``names`` (``--duration``, ``--seed``, ...) on ``parser``.
+
+    ``genome`` is the positional genome argument (:func:`add_genome`). Each option takes its
+    one default from :data:`DEFAULTS`. With ``layered`` (e.g. "the run's"), an
+    option not given is None and the command takes ``layered``'s value first, the default only
+    after it (:func:`option`). ``notes`` adds a command's remark to an option's help.
+    """
+    for name in names:
+        if name == "genome":
+            add_genome(parser)
+            continue
+        kwargs, text = _SHARED[name]
+        kwargs = dict(kwargs)
+        if name in DEFAULTS:
+            kwargs["default"] = None if layered else DEFAULTS[name]
+            shown = f"{DEFAULTS[name]:g}" if name == "duration" else DEFAULTS[name]
+            text += f" (default: {layered}, else {shown})" if layered else f" (default {shown})"
+        if notes and name in notes:
+            text += f"; {notes[name]}"
+        parser.add_argument(f"--{name}", help=text, **kwargs)
+
+
+def option(args: argparse.Namespace, name: str, saved: dict | None = None):
+    """A layered option's value: given, else ``saved[name]`` (a run's config), else its default."""
+    value = getattr(args, name, None)
+    if value is None:
+        value = (saved or {}).get(name, DEFAULTS[name])
+    return value
+
+
+def add_simulation_options(parser: argparse.ArgumentParser, layered: str = "") -> None:
     """``--duration``, ``--preset`` and ``--seed``: how a command simulates."""
-    from ..sim.config import PRESETS
-
-    parser.add_argument("--duration", type=finite_float("duration"), default=30.0,
-                        help="episode length [s]")
-    parser.add_argument("--preset", default="paper", choices=sorted(PRESETS),
-                        help="simulation preset")
-    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the sensor noise")
+    add_options(parser, "duration", "preset", layered=layered)
+    add_options(parser, "seed")
 
 
-def simulation_config(args: argparse.Namespace):
-    """The :class:`~somite.sim.config.SimConfig` of :func:`add_simulation_options`' options."""
+def simulation_config(args: argparse.Namespace, saved: dict | None = None):
+    """The :class:`~somite.sim.config.SimConfig` of :func:`add_simulation_options`' options.
+
+    ``saved`` (a run's ``config.json``) fills the options not given, and its ``transient``.
+    """
     from ..sim.config import preset
 
-    return preset(args.preset, duration=args.duration)
+    saved = saved or {}
+    options = {"duration": float(option(args, "duration", saved))}
+    if isinstance(saved.get("transient"), (int, float)):
+        options["transient"] = float(saved["transient"])
+    return preset(option(args, "preset", saved), **options)

@@ -5,13 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..evolution.config import resolve
+from ..experiments.config import resolve
 from ..experiments.runner import RunDirectory, evolve
+from .common import add_options
 from .evolve import progress_bar, summarise
 
-HELP = "Evolve a worm on flat ground for 30 generations, render its best gait, plot the run."
+HELP = "Evolve a worm on flat ground for 60 generations, render its best gait, plot the run."
 
-DEMO = {"shape": "worm", "population": 48, "generations": 30, "duration": 20.0, "seed": 0,
+DEMO = {"shape": "worm", "population": 48, "generations": 60, "duration": 20.0, "seed": 0,
         "terrain": "flat"}
 """Small enough for a laptop in under a minute; big enough to show clear progress. On flat
 ground, because at so small a budget the best of a generation on random hilly terrains is
@@ -21,7 +22,7 @@ mostly the robot that drew the luckiest terrain, and would barely walk on anothe
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="demo", help="output folder")
     parser.add_argument("--generations", type=int, default=DEMO["generations"])
-    parser.add_argument("--quiet", action="store_true")
+    add_options(parser, "quiet")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -32,10 +33,9 @@ def run(args: argparse.Namespace) -> int:
     run_dir = out / "run"
     config = resolve({**DEMO, "generations": args.generations})
     with progress_bar(config.generations, args.quiet) as report:
-        state = evolve(config, run_dir, force=True, progress=report)
-    summarise(state, RunDirectory(run_dir), args.quiet)
-    best = state.population.genomes[state.population.best()]
-    video = render_episode(best, out / "best.mp4", terrain_name=config.terrain,
+        ea = evolve(config, run_dir, force=True, progress=report)
+    summarise(ea, RunDirectory(run_dir), args.quiet)
+    video = render_episode(ea.best, out / "best.mp4", terrain_name=config.terrain,
                            duration=config.duration)
     plot = plot_runs([run_dir], out / "run.png", group_by="shape")
     print(f"video of the best robot: {video}")

@@ -5,19 +5,19 @@ from __future__ import annotations
 import argparse
 import csv
 import io
-import json
 from pathlib import Path
 
+from .._io import write_atomic
 from ..brain.genome import Genome
 from ..errors import bad
-from ..modules.discovery import partition_around, partition_to_dict, rank_candidates, score
-from ..modules.library import write_atomic
+from ..modules.discovery import partition_around, rank_candidates, score
+from .common import add_options, load_genome
 
 HELP = "Find the most compact module of a genome (eq. 5) and partition its body around it."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("genome", help="genome file")
+    add_options(parser, "genome")
     parser.add_argument("--out", required=True, help="output folder")
     parser.add_argument("--min", dest="b_min", type=int, default=2, help="b_min (default 2)")
     parser.add_argument("--max", dest="b_max", type=int, default=5, help="b_max (default 5)")
@@ -27,12 +27,13 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise bad("out", args.out, "exists and is not a folder")
-    genome = Genome.load(args.genome)
+    genome = load_genome(args.genome)
     ranked = rank_candidates(genome, args.b_min, args.b_max)
     best = ranked[0]
     partition = partition_around(genome.body.shape, best.voxels)
-    data = partition_to_dict(
-        partition,
+    out.mkdir(parents=True, exist_ok=True)
+    partition.save(
+        out / "partition.json",
         genome=str(args.genome),
         b_min=args.b_min,
         b_max=args.b_max,
@@ -42,8 +43,6 @@ def run(args: argparse.Namespace) -> int:
             label: _module_score(genome, partition, label) for label in partition.modules
         },
     )
-    out.mkdir(parents=True, exist_ok=True)
-    write_atomic(out / "partition.json", json.dumps(data, indent=1, allow_nan=False) + "\n")
     write_atomic(out / "candidates.csv", _csv(ranked))
     print(f"most compact module (c = {_fmt(best.compactness)}): {list(best.voxels)}")
     print(f"partition {partition.grid_string()} ({len(partition.modules)} modules)")

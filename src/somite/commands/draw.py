@@ -4,19 +4,20 @@ from __future__ import annotations
 
 import argparse
 
-from ..modules.partition import Partition
+from ..sim.partition import Partition
 from ..viz.brain import BRAIN_FORMATS, draw_brain
 from ..viz.output import check_output
-from .common import load_genome
+from .common import add_options, load_genome
 
 HELP = "Draw a genome's graph on its body (PNG or SVG), optionally coloured by modules."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("genome", help="genome JSON, or a run directory (its best.json)")
+    add_options(parser, "genome")
     parser.add_argument("--out", default="brain.png", help="brain.png or brain.svg")
     parser.add_argument("--partition", default=None,
-                        help="worm-halves, biped-legs, paper, or a label grid like AAABBB/AAABBB")
+                        help="worm-halves, biped-legs, paper, a label grid like AAABBB/AAABBB "
+                        "or a partition.json (somite discover writes one)")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -8,25 +8,20 @@ import numpy as np
 
 from ..errors import bad
 from ..sim.terrain import parse_terrain
-from ..tasks.validation import evaluate, validation_terrains
-from .common import (
-    add_simulation_options,
-    load_genome,
-    print_json,
-    simulation_config,
-)
+from ..tasks.validation import evaluate_outcomes, validation_terrains
+from ..tasks.velocity import mean_velocity
+from .common import add_options, add_simulation_options, load_genome, print_json, simulation_config
 
 HELP = "Evaluate a genome (file or run directory) on validation terrains; per-terrain v_x."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("genome", help="genome JSON, or a run directory (its best.json)")
+    add_options(parser, "genome", "validation",
+                notes={"validation": "used when no --terrain is given"})
     parser.add_argument("--terrain", action="append", dest="terrains",
-                        help="terrain name (repeatable); default: the 10 validation terrains")
-    parser.add_argument("--validation", type=int, default=10,
-                        help="how many fixed validation terrains when no --terrain is given")
+                        help="terrain name (repeatable); default: the validation terrains")
     add_simulation_options(parser)
-    parser.add_argument("--json", action="store_true", help="print JSON")
+    add_options(parser, "json")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -38,17 +33,40 @@ def run(args: argparse.Namespace) -> int:
             raise bad("validation", args.validation, "must be at least 1")
         terrains = validation_terrains(args.validation)
     config = simulation_config(args)
-    velocities = evaluate([genome], terrains, config, args.seed)[0]
+    outcomes = evaluate_outcomes([genome], terrains, config, args.seed)[0]
+    velocities = np.array([o.velocity for o in outcomes])
+    mean = mean_velocity(velocities)  # NaN when any terrain is (the one rule)
     report = {
         "genome": args.genome,
-        "terrains": {t.name: float(v) for t, v in zip(terrains, velocities)},
-        "mean_velocity": float(np.nanmean(velocities)) if np.isfinite(velocities).any() else None,
+        "terrains": {t.name: o.velocity for t, o in zip(terrains, outcomes)},
+        "mean_velocity": None if np.isnan(mean) else mean,
         "non_finite": int(np.isnan(velocities).sum()),
+        # Exploits show in numbers: an inverted voxel, a robot that moves on its side, jumps.
+        "diagnostics": {
+            t.name: {key: getattr(o, key) for key in DIAGNOSTICS}
+            for t, o in zip(terrains, outcomes)
+        },
     }
+    for key, pick in DIAGNOSTICS.items():
+        values = [getattr(o, key) for o in outcomes]
+        report[key] = float(pick(values)) if np.isfinite(values).any() else None
     if args.json:
         print_json(report)
     else:
-        for name, value in report["terrains"].items():
-            print(f"{name:>22}: {value:8.4f} m/s")
-        print(f"{'mean':>22}: {report['mean_velocity']:8.4f} m/s")
+        for t, o in zip(terrains, outcomes):
+            print(f"{t.name:>22}: {o.velocity:8.4f} m/s   tilt {o.max_tilt_deg:5.1f} deg,"
+                  f" on its side {o.flipped_fraction:6.1%}, area >= {o.min_signed_area_ratio:.2f},"
+                  f" height {o.max_height:.2f} m")
+        mean = report["mean_velocity"]
+        print(f"{'mean':>22}: {'NaN' if mean is None else f'{mean:8.4f}'} m/s"
+              f"{'  (non-finite on some terrain)' if report['non_finite'] else ''}")
     return 0
+
+
+DIAGNOSTICS = {
+    "min_signed_area_ratio": np.nanmin,
+    "max_tilt_deg": np.nanmax,
+    "flipped_fraction": np.nanmax,
+    "max_height": np.nanmax,
+}
+"""The outcome's diagnostics, and how the report sums them up over the terrains."""

@@ -6,53 +6,65 @@ import argparse
 import math
 
 from ..errors import bad
-from ..evolution.config import EvolutionConfig, load_toml, resolve
-from ..experiments.runner import RunDirectory, RunState, evolve
-from .common import finite_float, seed_int
+from ..evolution.ea import GraphEA
+from ..experiments.config import RunConfig, load_toml, resolve
+from ..experiments.runner import RunDirectory, evolve
+from ..tasks.distributions import DISTRIBUTION_HELP
+from .common import add_options, finite_float
 
 HELP = "Evolve a graph controller with the paper's EA; writes logs, bests and checkpoints."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--shape", help="biped, worm, WxH or rows like 1111/1001")
-    parser.add_argument("--sensors", help="sensor preset: paper, none, area or all")
+    add_options(parser, "shape", "sensors", layered=_LAYERED)
     add_evolution_options(parser)
+
+
+_LAYERED = "the --config file's"
 
 
 def add_evolution_options(parser: argparse.ArgumentParser) -> None:
     """The options shared by ``evolve`` and ``reoptimize``."""
     parser.add_argument("--out", required=True, help="run directory")
     parser.add_argument("--config", help="TOML file with any of the options below")
-    parser.add_argument("--preset", help="paper (default) or original-code")
+    add_options(parser, "preset", layered=_LAYERED)
     parser.add_argument("--generations", type=int)
     parser.add_argument("--population", type=int)
-    parser.add_argument("--seed", type=seed_int)
-    parser.add_argument("--terrain", help="hilly-1-10-rnd (a new terrain per evaluation) or a name")
-    parser.add_argument("--duration", type=finite_float("duration"), help="episode length [s]")
+    add_options(parser, "seed", layered=_LAYERED)
+    parser.add_argument("--terrain", help=f"training terrains: {DISTRIBUTION_HELP}; "
+                        "default hilly-1-10-rnd (a new terrain per evaluation)")
+    add_options(parser, "duration", layered=_LAYERED)
+    parser.add_argument("--evaluations", type=int, metavar="K",
+                        help="terrains per evaluation, fitness their mean v_x (1: the paper)")
+    parser.add_argument("--validate-every", type=int, metavar="N",
+                        help="log the best's mean v_x on the 10 validation terrains every N "
+                        "generations and at the last (default 50; 0: never)")
     parser.add_argument("--omega", type=finite_float("omega"), help="modularity bias (1 = none)")
     parser.add_argument("--modules",
-                        help="partition for omega: paper, worm-halves, biped-legs or a grid")
+                        help="partition for omega: paper, worm-halves, biped-legs, a grid "
+                        "or a partition.json")
     parser.add_argument("--weights-only", action="store_true", default=None,
                         help="the ablation: only weight mutation (p_mutate_edge 1, others 0)")
     parser.add_argument("--checkpoint-every", type=int)
     parser.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
     parser.add_argument("--force", action="store_true", help="overwrite an existing run")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_options(parser, "quiet")
 
 
 _OPTIONS = ("preset", "shape", "sensors", "generations", "population", "seed", "terrain",
-            "duration", "omega", "modules", "weights_only", "checkpoint_every")
+            "duration", "evaluations", "validate_every", "omega", "modules", "weights_only",
+            "checkpoint_every")
 
 
 def run(args: argparse.Namespace) -> int:
     config = configuration(args)
     with progress_bar(config.generations, args.quiet) as report:
-        state = evolve(config, args.out, resume=args.resume, force=args.force, progress=report)
-    summarise(state, RunDirectory(args.out), args.quiet)
+        ea = evolve(config, args.out, resume=args.resume, force=args.force, progress=report)
+    summarise(ea, RunDirectory(args.out), args.quiet)
     return 0
 
 
-def configuration(args: argparse.Namespace, **fixed) -> EvolutionConfig:
+def configuration(args: argparse.Namespace, **fixed) -> RunConfig:
     """The run's configuration from TOML and options, or the saved one on ``--resume``."""
     cli = {k: getattr(args, k) for k in _OPTIONS if getattr(args, k, None) is not None}
     cli.update(fixed)
@@ -72,11 +84,15 @@ def configuration(args: argparse.Namespace, **fixed) -> EvolutionConfig:
     return config
 
 
-def summarise(state: RunState, run_dir: RunDirectory, quiet: bool) -> None:
-    best = state.population.fitness[state.population.best()]
-    if not quiet:
-        print(f"best v_x {best:.3f} m/s after {state.generation} generations -> "
-              f"{run_dir.file('best.json')}")
+def summarise(ea: GraphEA, run_dir: RunDirectory, quiet: bool) -> None:
+    if quiet:
+        return
+    print(f"best v_x {ea.best_fitness:.3f} m/s (training) after {ea.generation} generations "
+          f"-> {run_dir.file('best.json')}")
+    validated = [r for r in ea.log if r["validation_velocity"] is not None]
+    if validated:
+        print(f"its mean v_x on the validation terrains: {validated[-1]['validation_velocity']:.3f}"
+              f" m/s (generation {validated[-1]['generation']})")
 
 
 class progress_bar:
@@ -109,11 +125,11 @@ class progress_bar:
         self.task = self.bar.add_task("evolve", total=self.generations, best="-", size="-")
         return self.update
 
-    def update(self, state: RunState, row: dict) -> None:
+    def update(self, ea: GraphEA, row: dict) -> None:
         best = row["best_velocity"]
         self.bar.update(
             self.task,
-            completed=state.generation,
+            completed=ea.generation,
             best="nan" if math.isnan(best) else f"{best:.3f}",
             size=row["best_size"],
         )

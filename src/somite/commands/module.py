@@ -5,12 +5,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..brain.genome import Genome
+from .._io import write_atomic
 from ..errors import bad
-from ..modules.discovery import partition_from_spec
-from ..modules.library import list_library, module_text, provenance_of, write_atomic
+from ..modules.library import list_library, module_text, provenance_of
 from ..modules.module import cut
-from .common import finite_float, print_json
+from ..sim.partition import Partition
+from .common import add_genome, add_options, finite_float, load_genome, print_json
 
 HELP = "Module library: 'module export' writes one module of a genome, 'module list' lists."
 
@@ -22,7 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         description="Write one module of a genome (its voxels, sensors, nodes and internal "
         "edges) as a somite-module file.",
     )
-    export.add_argument("genome", help="donor genome file")
+    add_genome(export, role="the donor")
     export.add_argument(
         "--partition", default="paper",
         help="a preset (paper, worm-halves, biped-legs), a grid of labels or a partition.json",
@@ -38,7 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         description="List the modules of a library folder (every *.json in it).",
     )
     listing.add_argument("folder", nargs="+", help="library folder(s) or module files")
-    listing.add_argument("--json", action="store_true", help="print JSON")
+    add_options(listing, "json")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -53,8 +53,8 @@ def _export(args: argparse.Namespace) -> int:
         raise bad("out", args.out, "is a folder; give the module file to write")
     if not out.name.endswith(".json") or out.name == ".json":
         raise bad("out", args.out, "a module file is named NAME.json (NAME is its library name)")
-    donor = Genome.load(args.genome)
-    partition = partition_from_spec(args.partition, donor.body.shape)
+    donor = load_genome(args.genome)
+    partition = Partition.parse(args.partition, donor.body.shape)
     module = cut(donor, partition).module(args.module)
     provenance = provenance_of(
         module, donor, partition.grid_string(), str(args.genome), args.velocity

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 from ..errors import bad
-from ..experiments.reoptimize import donor_velocity, transfer_curve
+from ..experiments.reoptimize import donor_velocities, transfer_curve
 from ..experiments.runner import RunDirectory, evolve
-from .common import load_genome
+from ..tasks.velocity import mean_velocity
+from .common import add_genome, add_options, load_genome
 from .evolve import add_evolution_options, configuration, progress_bar, summarise
 
 HELP = ("Re-optimise a genome with the EA from it and its mutants (510 generations in the "
@@ -15,11 +17,10 @@ HELP = ("Re-optimise a genome with the EA from it and its mutants (510 generatio
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("genome", help="the genome to start from (e.g. reassembled.json)")
+    add_genome(parser, role="the genome to start from (e.g. reassembled.json)")
     parser.add_argument("--donors", nargs="+", default=(),
                         help="donor genomes: rho = v_x / mean v_x of the donors")
-    parser.add_argument("--validation", type=int, default=10,
-                        help="fixed validation terrains for rho")
+    add_options(parser, "validation", notes={"validation": "rho is measured on them"})
     add_evolution_options(parser)
     parser.set_defaults(generations=510)
 
@@ -32,12 +33,14 @@ def run(args: argparse.Namespace) -> int:
     shape = genome.body.shape.grid_string()
     config = configuration(args, shape=shape, start=str(args.genome))
     with progress_bar(config.generations, args.quiet) as report:
-        state = evolve(config, args.out, resume=args.resume, force=args.force, progress=report,
-                       start=None if args.resume else genome)
-    donors_mean = donor_velocity(donors, config.sim(), args.validation) if donors else None
-    rows = transfer_curve(args.out, donors_mean, config.sim(), args.validation)
-    summarise(state, RunDirectory(args.out), args.quiet)
-    if not args.quiet and donors_mean is not None:
+        ea = evolve(config, args.out, resume=args.resume, force=args.force, progress=report,
+                    start=None if args.resume else genome)
+    sim = config.task().sim
+    velocities = donor_velocities(donors, sim, args.validation) if donors else []
+    rows = transfer_curve(args.out, velocities, sim, args.validation)
+    summarise(ea, RunDirectory(args.out), args.quiet)
+    donors_mean = mean_velocity(velocities) if donors else math.nan
+    if not args.quiet and donors:
         print(f"rho: {rows[0]['rho']:.3f} at the start, {rows[-1]['rho']:.3f} at the end "
               f"(donors {donors_mean:.3f} m/s on {args.validation} validation terrains)")
     return 0

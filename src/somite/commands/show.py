@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from ..errors import bad
-from ..sim.config import CONTROL_HZ, PRESETS, SimConfig, preset
+from ..sim.config import CONTROL_HZ
 from ..sim.terrain import TERRAIN_HELP
 from ..viz.frame import frame_steps
 from ..viz.output import check_output
@@ -22,19 +22,20 @@ from ..viz.video import (
     record_episode,
     write_episode,
 )
-from .common import finite_float, load_genome, seed_int
+from .common import (
+    add_options,
+    add_simulation_options,
+    finite_float,
+    load_genome,
+    simulation_config,
+)
 
 HELP = "Simulate a genome (file or run directory) and write an MP4/GIF video or a PNG strip."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("genome", help="genome JSON, or a run directory (its best.json)")
     parser.add_argument("--terrain", default="hilly-1-10-0", help=TERRAIN_HELP)
-    parser.add_argument("--duration", type=finite_float("duration"), default=None,
-                        help="[s]; default: the run's, else 30")
-    parser.add_argument("--seed", type=seed_int, default=0, help="seed of the sensor noise")
-    parser.add_argument("--preset", default=None, choices=sorted(PRESETS),
-                        help="default: the run's, else paper")
+    add_simulation_options(parser, layered="the run's")
     parser.add_argument("--out", default=None,
                         help="walk.mp4 or walk.gif (video), strip.png (time-lapse); "
                         "default walk.mp4, or strip.png with --frames")
@@ -47,6 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="video width (960) or tile width (320) [px]")
     parser.add_argument("--height", type=int, default=None,
                         help="video height (540) or tile height (240) [px]")
+    add_options(parser, "genome")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -62,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     frame_size(args.width, args.height, TILE_SIZE if out.suffix.lower() in STRIP_FORMATS
                else VIDEO_SIZE)
     genome = load_genome(args.genome)
-    config = _config(args, _run_config(args.genome))
+    config = simulation_config(args, _run_config(args.genome))
     recording = record_episode(genome.body, genome, args.terrain, config, args.seed)
     if not recording.complete:
         stop = recording.n_steps / CONTROL_HZ
@@ -88,11 +90,3 @@ def _run_config(target: str) -> dict:
         raise bad("config", str(path), f"cannot read it ({error})") from None
     return data if isinstance(data, dict) else {}
 
-
-def _config(args: argparse.Namespace, run: dict) -> SimConfig:
-    name = args.preset or run.get("preset", "paper")
-    duration = args.duration if args.duration is not None else run.get("duration", 30.0)
-    options = {"duration": float(duration)}
-    if isinstance(run.get("transient"), (int, float)):
-        options["transient"] = float(run["transient"])
-    return preset(name, **options)

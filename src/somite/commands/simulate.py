@@ -8,20 +8,19 @@ from ..brain.controllers import parse_controller
 from ..sim.body import Body
 from ..sim.terrain import TERRAIN_HELP, parse_terrain
 from ..tasks.locomotion import simulate
-from .common import add_simulation_options, print_json, simulation_config
+from .common import add_options, add_simulation_options, print_json, simulation_config
 
 HELP = "Simulate one robot and print how it went (v_x over [5 s, end], distance, ...)."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--shape", default="worm", help="biped, worm, WxH or rows like 1111/1001")
-    parser.add_argument("--sensors", default="paper", help="paper, none, area or all")
+    add_options(parser, "shape", "sensors")
     parser.add_argument("--terrain", default="flat", help=TERRAIN_HELP)
     parser.add_argument(
         "--controller", default="sine", help="zero, or sine:freq=F,amp=A,phase=P (1, 1, -1)"
     )
     add_simulation_options(parser)
-    parser.add_argument("--json", action="store_true", help="print JSON")
+    add_options(parser, "json")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -46,5 +45,5 @@ def run(args: argparse.Namespace) -> int:
                 value = f"{value:.4f}"
             elif isinstance(value, list):
                 value = ", ".join(f"{v:.3f}" for v in value)
-            print(f"{key:>17}: {value}")
+            print(f"{key:>21}: {value}")
     return 0 if outcome.finite else 1

@@ -1,148 +1,115 @@
-"""Configuration of an evolutionary run, its presets, and loading it from TOML.
+"""What the graph EA needs: population, selection and variation (operators, omega, partition).
 
-Precedence: the preset's values, then the TOML file, then command-line options. Every key of
-:class:`EvolutionConfig` can be set in TOML at the top level; unknown keys and wrong types are
-one-line errors naming the key.
+What a *run* needs on top (body, seed, generations, terrains, episodes, checkpoints) is
+:class:`somite.experiments.config.RunConfig`.
 """
 
 from __future__ import annotations
 
 import math
-import tomllib
-from dataclasses import asdict, dataclass, fields, replace
-from pathlib import Path
+from dataclasses import dataclass, field, fields, replace
 
 from ..errors import bad
-from ..sim.config import PRESETS as SIM_PRESETS
-from ..sim.config import SimConfig
-from ..sim.config import preset as sim_preset
-from .operators import NODE_PLACEMENTS, OperatorConfig
+from ..sim.body import Shape
+from ..sim.partition import Partition
+from .operators import OperatorConfig
 
 SEEDED_MUTANTS = ("population-1", "population")
-RANDOM_TERRAIN = "hilly-1-10-rnd"
-"""The training terrain: a fresh ``hilly-1-10-SEED`` for every evaluation."""
+_TYPES = {"int": int, "float": (int, float), "str": str, "bool": bool}
+
+
+def check_types(cls, values: dict) -> dict:
+    """``values`` checked against the scalar field types of dataclass ``cls`` (a one-line
+    error naming the field), with ints given for float fields made floats."""
+    types = {f.name: f.type for f in fields(cls)}
+    checked = dict(values)
+    for name, value in values.items():
+        expected = _TYPES.get(types.get(name))
+        if expected is None:
+            continue  # not a scalar field: a nested configuration checks itself
+        if not isinstance(value, expected) or (types[name] != "bool" and isinstance(value, bool)):
+            raise bad(name, value, f"must be of type {types[name]}")
+        if types[name] == "float":
+            if not math.isfinite(value):
+                raise bad(name, value, "must be a finite number")
+            checked[name] = float(value)
+    return checked
 
 
 @dataclass(frozen=True)
-class EvolutionConfig:
-    """Everything that decides an evolutionary run (the paper's values by default).
+class GAConfig:
+    """The paper's EA (Algorithm 1) and the authors' variants of it; the paper's by default.
 
-    ``terrain`` may end in ``-rnd`` (a new random seed in [0, 10000) for every evaluation,
-    drawn from the run's generator) or name one fixed terrain. ``modules`` names the partition
-    used by the biased operators (``paper``, ``worm-halves``, ``biped-legs`` or a label grid);
-    it only matters when ``omega`` != 1. ``start`` names the genome a re-optimisation started
-    from (empty for a run from scratch); it then begins with that genome and
-    ``seeded_mutants`` mutants of it (``population-1`` in the paper, ``population`` in the
-    authors' code, whose first population has one individual more).
+    Attributes
+    ----------
+    population : int
+        n_pop: parents kept, and offspring made, per generation.
+    tournament : int
+        Tournament size (drawn with replacement).
+    reevaluate_parents : bool
+        The authors' code: parents are evaluated again every generation and their fitness
+        replaced (the paper keeps a parent's one evaluation).
+    seeded_mutants : str
+        A re-optimisation starts from its genome and ``population-1`` (paper) or
+        ``population`` (authors' code) mutants of it.
+    modules : str
+        The partition the biased operators use when ``operators.omega`` != 1: ``paper``,
+        ``worm-halves``, ``biped-legs``, a grid of labels or a partition file (``*.json``).
+    weights_only : bool
+        The ablation: only ``mutate_edge`` (the probabilities in ``operators`` are ignored).
+    operators : OperatorConfig
+        Operator probabilities, sigma, omega and node placement.
     """
 
-    shape: str = "worm"
-    sensors: str = "paper"
-    preset: str = "paper"
-    seed: int = 0
-    generations: int = 3000
     population: int = 96
     tournament: int = 5
-    terrain: str = RANDOM_TERRAIN
-    duration: float = 30.0
-    transient: float = 5.0
     reevaluate_parents: bool = False
-    omega: float = 1.0
+    seeded_mutants: str = "population-1"
     modules: str = "paper"
     weights_only: bool = False
-    p_mutate_edge: float = 0.5
-    p_add_edge: float = 0.1
-    p_remove_edge: float = 0.1
-    p_add_node: float = 0.15
-    p_remove_node: float = 0.15
-    sigma: float = 0.7
-    node_placement: str = "module"
-    seeded_mutants: str = "population-1"
-    start: str = ""
-    checkpoint_every: int = 10
+    operators: OperatorConfig = field(default_factory=OperatorConfig)
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            expected = {"int": int, "float": (int, float), "str": str, "bool": bool}[f.type]
-            if not isinstance(value, expected) or (f.type != "bool" and isinstance(value, bool)):
-                raise bad(f.name, value, f"must be of type {f.type}")
-            if f.type == "float" and not math.isfinite(value):
-                raise bad(f.name, value, "must be a finite number")
-        if self.preset not in SIM_PRESETS:
-            raise bad("preset", self.preset, f"use one of {list(SIM_PRESETS)}")
-        for name, low in (("generations", 0), ("population", 2), ("tournament", 1)):
+        check_types(GAConfig, {f.name: getattr(self, f.name) for f in fields(self)})
+        if not isinstance(self.operators, OperatorConfig):
+            raise bad("operators", self.operators, "expected an OperatorConfig")
+        for name, low in (("population", 2), ("tournament", 1)):
             if getattr(self, name) < low:
                 raise bad(name, getattr(self, name), f"must be at least {low}")
-        if self.checkpoint_every < 1:
-            raise bad("checkpoint_every", self.checkpoint_every, "must be at least 1")
-        if not self.omega > 0:
-            raise bad("omega", self.omega, "must be positive")
         if self.seeded_mutants not in SEEDED_MUTANTS:
             raise bad("seeded_mutants", self.seeded_mutants, f"use one of {SEEDED_MUTANTS}")
-        if self.node_placement not in NODE_PLACEMENTS:
-            raise bad("node_placement", self.node_placement, f"use one of {NODE_PLACEMENTS}")
-        self.operators()  # validates the probabilities and sigma
-        self.sim()  # validates duration and transient
 
-    def operators(self) -> OperatorConfig:
-        """The operator configuration (the fields of the same names); the weights-only
-        ablation keeps weight mutation alone."""
-        values = {f.name: getattr(self, f.name) for f in fields(OperatorConfig)}
-        if self.weights_only:
-            values.update(p_mutate_edge=1.0, p_add_edge=0.0, p_remove_edge=0.0, p_add_node=0.0,
-                          p_remove_node=0.0)
-        return OperatorConfig(**values)
+    @classmethod
+    def from_options(cls, options: dict) -> GAConfig:
+        """From flat options: this class's fields and :class:`OperatorConfig`'s (``omega``,
+        ``p_add_edge``, ...); an unknown key is a one-line error."""
+        own = {f.name for f in fields(cls)} - {"operators"}
+        operator_keys = {f.name for f in fields(OperatorConfig)}
+        for key, value in options.items():
+            if key not in own | operator_keys:
+                raise bad(key, value, "unknown option")
+        options = check_types(OperatorConfig, options)
+        operators = OperatorConfig(**{k: v for k, v in options.items() if k in operator_keys})
+        return cls(**{k: v for k, v in options.items() if k in own}, operators=operators)
+
+    def to_dict(self) -> dict:
+        """Flat: this class's fields and the operators' (the form of TOML and config.json)."""
+        data = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "operators"}
+        return {**data, **self.operators.to_dict()}
+
+    def variation(self) -> OperatorConfig:
+        """The operators mutation uses: ``operators``, or weight mutation alone with
+        ``weights_only``."""
+        if not self.weights_only:
+            return self.operators
+        return replace(self.operators, p_mutate_edge=1.0, p_add_edge=0.0, p_remove_edge=0.0,
+                       p_add_node=0.0, p_remove_node=0.0)
+
+    def partition(self, shape: Shape) -> Partition | None:
+        """The partition of ``shape`` the biased operators use (None when omega = 1)."""
+        if self.operators.omega == 1.0:
+            return None
+        return Partition.parse(self.modules, shape)
 
     def n_seeded_mutants(self) -> int:
         return self.population - (self.seeded_mutants == "population-1")
-
-    def sim(self) -> SimConfig:
-        return sim_preset(self.preset, duration=float(self.duration),
-                          transient=float(self.transient))
-
-    def to_dict(self) -> dict:
-        return asdict(self)
-
-
-EVOLUTION_PRESETS: dict[str, dict] = {
-    "paper": {},
-    "original-code": {"preset": "original-code", "reevaluate_parents": True,
-                      "node_placement": "uniform", "seeded_mutants": "population"},
-}
-"""The evolutionary half of each preset (decisions.md); ``preset`` also picks the simulator's."""
-
-
-def _field_types() -> dict[str, str]:
-    return {f.name: f.type for f in fields(EvolutionConfig)}
-
-
-def load_toml(path: str | Path) -> dict:
-    """The options of a TOML file, checked for unknown keys (types are checked on build)."""
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise bad("config", str(path), "no such file") from None
-    except tomllib.TOMLDecodeError as error:
-        raise bad("config", str(path), f"not valid TOML ({error})") from None
-    known = _field_types()
-    for key in data:
-        if key not in known:
-            raise bad("config." + key, data[key], "unknown option")
-    return data
-
-
-def resolve(options: dict) -> EvolutionConfig:
-    """Build the configuration: preset defaults, then ``options`` (TOML and CLI merged)."""
-    name = options.get("preset", "paper")
-    if name not in EVOLUTION_PRESETS:
-        raise bad("preset", name, f"use one of {list(EVOLUTION_PRESETS)}")
-    merged = {**EVOLUTION_PRESETS[name], **options}
-    types = _field_types()
-    for key, value in merged.items():
-        if key not in types:
-            raise bad(key, value, "unknown option")
-        if types[key] == "float" and isinstance(value, int) and not isinstance(value, bool):
-            merged[key] = float(value)
-    return replace(EvolutionConfig(), **merged)

@@ -1,35 +1,33 @@
-"""The paper's evolutionary algorithm (Algorithm 1; original-system.md section 5).
+"""The paper's evolutionary algorithm (Algorithm 1; original-system.md section 5), ask/tell.
 
 Per generation: n_pop offspring, each a mutation of a parent chosen by tournament (size 5,
 drawn with replacement); offspring evaluated each on its own fresh random terrain; with
-``reevaluate_parents`` (the authors' code) the parents are re-simulated on new terrains and
-their fitness replaced; parents and offspring merged; the n_pop best kept, ties broken at
-random. NaN fitness counts as the worst.
+``reevaluate_parents`` (the authors' code) the parents are evaluated again and their fitness
+replaced; parents and offspring merged; the n_pop best kept, ties broken at random. NaN
+fitness counts as the worst.
 
-All randomness comes from one ``numpy.random.Generator`` consumed in a fixed order, so a run is
-a pure function of its configuration and seed, and a checkpoint of (population, fitness,
-generator state) resumes it exactly.
+The EA does not evaluate: :meth:`GraphEA.ask` says which genomes need a fitness and
+:meth:`GraphEA.tell` takes it. Its randomness comes from two generators spawned from one
+``SeedSequence(seed)``: ``rng_variation`` (initial genomes, tournaments, mutations, ties) and
+``rng_evaluation`` (handed to the task: terrains and sensor noise). Changing the task, or how
+many terrains it draws, leaves the mutations alone. A state of (population, fitness, both
+generators) resumes a run exactly.
 """
 
 from __future__ import annotations
 
-import functools
+import json
+import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..brain.compile import compile_genome
 from ..brain.genome import Genome
-from ..modules.partition import Partition
+from ..errors import bad
 from ..sim.body import Body
-from ..sim.system import compile_system
-from ..sim.terrain import Terrain, hilly, parse_terrain
-from ..tasks.locomotion import compile_controllers, outcomes, run
-from .config import EvolutionConfig
+from .config import GAConfig
 from .operators import initial_genome, mutate
-
-N_TERRAIN_SEEDS = 10000
-"""Random training terrains are hilly-1-10-SEED with SEED in [0, 10000), as in the original."""
 
 
 @dataclass
@@ -45,37 +43,8 @@ class Population:
         return int(np.argmax(_sortable(self.fitness)))
 
 
-@functools.lru_cache(maxsize=16384)
-def _training_terrain(seed: int) -> Terrain:
-    # Generating a hilly profile takes ~1 ms in Python; runs revisit the 10,000 seeds often.
-    return hilly(1.0, 10.0, seed)
-
-
 def _sortable(fitness: np.ndarray) -> np.ndarray:
     return np.where(np.isnan(fitness), -np.inf, fitness)
-
-
-class Evaluator:
-    """Simulates genomes of one body: each evaluation on its own terrain and noise seed."""
-
-    def __init__(self, body: Body, config: EvolutionConfig) -> None:
-        self.body = body
-        self.sim = config.sim()
-        self.random_terrain = config.terrain.endswith("-rnd")
-        self.fixed = None if self.random_terrain else parse_terrain(config.terrain)
-
-    def __call__(self, genomes: list[Genome], rng: np.random.Generator) -> np.ndarray:
-        n = len(genomes)
-        if self.random_terrain:
-            terrains = [_training_terrain(int(s)) for s in rng.integers(0, N_TERRAIN_SEEDS, n)]
-        else:
-            terrains = [self.fixed] * n
-        noise_seeds = rng.integers(0, 2**32, n)
-        system = compile_system([self.body] * n, terrains, self.sim.start_gap)
-        arrays = [compile_genome(g) for g in genomes]
-        controllers = compile_controllers(arrays, [self.body.shape.n_voxels] * n)
-        trace = run(system, controllers, self.sim, noise_seeds)
-        return np.array([o.velocity for o in outcomes(trace, self.sim)])
 
 
 def tournament(fitness: np.ndarray, size: int, rng: np.random.Generator) -> int:
@@ -91,60 +60,6 @@ def truncate(fitness: np.ndarray, keep: int, rng: np.random.Generator) -> np.nda
     tie_break = rng.random(len(fitness))
     order = np.lexsort((tie_break, -_sortable(fitness)))
     return order[:keep]
-
-
-def initial_population(
-    body: Body, config: EvolutionConfig, evaluate: Evaluator, rng: np.random.Generator
-) -> Population:
-    genomes = [initial_genome(body, rng) for _ in range(config.population)]
-    fitness = evaluate(genomes, rng)
-    return Population(genomes, fitness, ["init"] * len(genomes))
-
-
-def seeded_population(
-    seed: Genome, config: EvolutionConfig, evaluate: Evaluator, rng: np.random.Generator,
-    partition: Partition | None, mutants: int,
-) -> Population:
-    """``seed`` and ``mutants`` one-step mutants of it, evaluated (re-optimisation start)."""
-    operators = config.operators()
-    genomes = [seed]
-    origins = ["seed"]
-    for _ in range(mutants):
-        child, name = mutate(seed, rng, operators, partition)
-        genomes.append(child)
-        origins.append(name)
-    return Population(genomes, evaluate(genomes, rng), origins)
-
-
-def generation(
-    population: Population,
-    config: EvolutionConfig,
-    evaluate: Evaluator,
-    rng: np.random.Generator,
-    partition: Partition | None,
-) -> tuple[Population, np.ndarray]:
-    """One generation of Algorithm 1: the new parents and every fitness value computed."""
-    operators = config.operators()
-    children, origins = [], []
-    for _ in range(config.population):
-        parent = population.genomes[tournament(population.fitness, config.tournament, rng)]
-        child, name = mutate(parent, rng, operators, partition)
-        children.append(child)
-        origins.append(name)
-    child_fitness = evaluate(children, rng)
-    computed = child_fitness
-    parent_fitness = population.fitness
-    if config.reevaluate_parents:
-        parent_fitness = evaluate(population.genomes, rng)
-        computed = np.concatenate([child_fitness, parent_fitness])
-    genomes = population.genomes + children
-    fitness = np.concatenate([parent_fitness, child_fitness])
-    kept = truncate(fitness, config.population, rng)
-    every_origin = population.origins + origins
-    survivors = Population(
-        [genomes[i] for i in kept], fitness[kept], [every_origin[i] for i in kept]
-    )
-    return survivors, computed
 
 
 def statistics(population: Population, computed: np.ndarray) -> dict:
@@ -165,3 +80,206 @@ def statistics(population: Population, computed: np.ndarray) -> dict:
         "best_operator": population.origins[best],
         "nan_count": int(np.isnan(computed).sum()),
     }
+
+
+@dataclass
+class _Asked:
+    genomes: list[Genome]
+    origins: list[str]
+    started: float
+
+
+class GraphEA:
+    """The paper's EA over graph genomes of one body, driven by ask/tell.
+
+    Parameters
+    ----------
+    body : Body
+        Every genome drives this body.
+    population : int
+        n_pop (96 in the paper).
+    seed : int
+        Seeds ``SeedSequence(seed)``; its two children seed :attr:`rng_variation` and
+        :attr:`rng_evaluation`.
+    start : Genome, optional
+        Re-optimisation: the first population is ``start`` and mutants of it instead of
+        minimal random genomes. It must drive ``body``.
+    config : GAConfig, optional
+        The EA's configuration; keyword ``options`` (any :class:`GAConfig` or
+        :class:`~somite.evolution.operators.OperatorConfig` field: ``omega=10``,
+        ``reevaluate_parents=True``, ``p_add_node=0.3``, ...) go on top of it.
+
+    Attributes
+    ----------
+    generation : int
+        The last generation told (0: the initial population; -1 before the first tell).
+    log : list of dict
+        One row per generation told, with the columns of ``log.csv``
+        (:data:`somite.experiments.logfile.LOG_COLUMNS`); ``validation_velocity`` is None
+        unless the caller sets it.
+    """
+
+    def __init__(
+        self,
+        body: Body,
+        population: int | None = None,
+        seed: int = 0,
+        *,
+        start: Genome | None = None,
+        config: GAConfig | None = None,
+        **options,
+    ) -> None:
+        if not isinstance(body, Body):
+            raise bad("body", type(body).__name__, "expected a somite Body")
+        base = (config or GAConfig()).to_dict()
+        if population is not None:
+            options["population"] = population
+        self.config = GAConfig.from_options({**base, **options})
+        if start is not None and start.body != body:
+            raise bad("shape", start.body.shape.grid_string(),
+                      f"the start genome's body differs from the EA's {body.shape.grid_string()}")
+        if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
+            raise bad("seed", seed, "must be an integer >= 0")
+        self.body = body
+        self.start = start
+        self.partition = self.config.partition(body.shape)
+        self.variation = self.config.variation()
+        variation, evaluation = np.random.SeedSequence(int(seed)).spawn(2)
+        self.rng_variation = np.random.default_rng(variation)
+        self.rng_evaluation = np.random.default_rng(evaluation)
+        self.population: Population | None = None
+        self.generation = -1
+        self.evaluations = 0
+        self.elapsed = 0.0
+        self.log: list[dict] = []
+        self._asked: _Asked | None = None
+
+    def __repr__(self) -> str:
+        return (f"GraphEA(body={self.body.shape.grid_string()!r}, "
+                f"population={self.config.population}, generation={self.generation})")
+
+    # -- ask/tell -----------------------------------------------------------------------------
+
+    def ask(self) -> list[Genome]:
+        """The genomes whose fitness the next :meth:`tell` needs, in order.
+
+        Generation 0: the initial population. Later: n_pop offspring, then (with
+        ``reevaluate_parents``) the current parents. Asking again before telling returns the
+        same genomes.
+        """
+        if self._asked is None:
+            started = time.perf_counter()
+            genomes, origins = self._offspring()
+            self._asked = _Asked(genomes, origins, started)
+        return list(self._asked.genomes)
+
+    def tell(self, genomes: list[Genome], fitness) -> dict:
+        """Give the fitness (v_x in m/s, shape (len(genomes),), NaN for a failed episode) of
+        the genomes :meth:`ask` returned; selects the next parents and returns the log row."""
+        asked = self._asked
+        if asked is None:
+            raise bad("tell", "genomes", "nothing asked: call ask() first")
+        if len(genomes) != len(asked.genomes) or any(
+            a is not b for a, b in zip(genomes, asked.genomes)
+        ):
+            raise bad("tell", "genomes", "not the genomes the last ask() returned")
+        fitness = np.asarray(fitness, dtype=np.float64)
+        if fitness.shape != (len(genomes),):
+            raise bad("fitness", fitness.shape, f"expected shape ({len(genomes)},)")
+        self._asked = None
+        if self.population is None:
+            self.population = Population(list(genomes), fitness, list(asked.origins))
+        else:
+            self.population = self._select(asked, fitness)
+        self.generation += 1
+        self.evaluations += len(genomes)
+        self.elapsed += time.perf_counter() - asked.started
+        row = {
+            "generation": self.generation,
+            "evaluations": self.evaluations,
+            "elapsed_seconds": round(self.elapsed, 3),
+            **statistics(self.population, fitness),
+            "validation_velocity": None,
+        }
+        self.log.append(row)
+        return row
+
+    @property
+    def best(self) -> Genome:
+        """The fittest parent (NaN counts as the worst)."""
+        if self.population is None:
+            raise bad("best", None, "no generation told yet")
+        return self.population.genomes[self.population.best()]
+
+    @property
+    def best_fitness(self) -> float:
+        """Its fitness, v_x in m/s, as evaluated in training (see ``validation_velocity``)."""
+        if self.population is None:
+            return math.nan
+        return float(self.population.fitness[self.population.best()])
+
+    def _offspring(self) -> tuple[list[Genome], list[str]]:
+        rng, config = self.rng_variation, self.config
+        if self.population is None and self.start is None:
+            genomes = [initial_genome(self.body, rng) for _ in range(config.population)]
+            return genomes, ["init"] * config.population
+        genomes, origins = ([self.start], ["seed"]) if self.population is None else ([], [])
+        count = config.n_seeded_mutants() if self.population is None else config.population
+        for _ in range(count):
+            parent = self.start if self.population is None else self.population.genomes[
+                tournament(self.population.fitness, config.tournament, rng)]
+            child, name = mutate(parent, rng, self.variation, self.partition)
+            genomes.append(child)
+            origins.append(name)
+        if self.population is not None and config.reevaluate_parents:
+            genomes = genomes + self.population.genomes
+        return genomes, origins
+
+    def _select(self, asked: _Asked, fitness: np.ndarray) -> Population:
+        old = self.population
+        n = len(asked.origins)
+        parent_fitness = fitness[n:] if self.config.reevaluate_parents else old.fitness
+        genomes = old.genomes + asked.genomes[:n]
+        merged = np.concatenate([parent_fitness, fitness[:n]])
+        origins = old.origins + asked.origins
+        kept = truncate(merged, self.config.population, self.rng_variation)
+        return Population([genomes[i] for i in kept], merged[kept], [origins[i] for i in kept])
+
+    # -- state --------------------------------------------------------------------------------
+
+    def state(self) -> dict:
+        """Everything :meth:`restore` needs, as JSON-ready data (between generations only)."""
+        if self._asked is not None:
+            raise bad("state", "asked", "a generation is under way: tell() it first")
+        if self.population is None:
+            raise bad("state", None, "no generation told yet")
+        return {
+            "generation": self.generation,
+            "evaluations": self.evaluations,
+            "elapsed_seconds": self.elapsed,
+            "rng_variation": self.rng_variation.bit_generator.state,
+            "rng_evaluation": self.rng_evaluation.bit_generator.state,
+            "fitness": [None if math.isnan(f) else float(f) for f in self.population.fitness],
+            "origins": list(self.population.origins),
+            "population": [json.loads(g.to_compact()) for g in self.population.genomes],
+        }
+
+    @classmethod
+    def restore(cls, state: dict, config: GAConfig | None = None) -> GraphEA:
+        """The EA of :meth:`state` (its body is the genomes'); ``log`` starts empty."""
+        genomes = [Genome.from_dict(g) for g in state["population"]]
+        fitness = np.array([math.nan if f is None else f for f in state["fitness"]], float)
+        origins = [str(o) for o in state["origins"]]
+        if not (len(genomes) == len(fitness) == len(origins)) or not genomes:
+            raise ValueError("population, fitness and origins differ in length")
+        ea = cls(genomes[0].body, config=config)
+        ea.rng_variation.bit_generator.state = state["rng_variation"]
+        ea.rng_evaluation.bit_generator.state = state["rng_evaluation"]
+        ea.population = Population(genomes, fitness, origins)
+        ea.generation = int(state["generation"])
+        ea.evaluations = int(state["evaluations"])
+        ea.elapsed = float(state["elapsed_seconds"])
+        return ea
+
+
+__all__ = ["GraphEA", "Population", "statistics", "tournament", "truncate"]

@@ -14,7 +14,8 @@ authors' operators always return a copy.
 - ``remove_node``: one uniformly chosen hidden node goes with its edges, then pruning.
 
 Modularity bias (section 6.2): with a partition, a pair whose two nodes lie in the same module
-weighs omega, any other pair 1. Without a partition, or with omega = 1, the choice is uniform.
+weighs omega, any other pair 1. Without a partition, or with omega = 1, there is no bias at all:
+pairs are chosen uniformly and ``add_node`` places the new node as without a partition.
 """
 
 from __future__ import annotations
@@ -26,10 +27,11 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from ..brain.genome import ACTUATOR, HIDDEN, SENSOR, Edge, Genome, Node, body_table, next_id
+from ..brain.genome import Edge, Genome, Node, body_table, next_id
+from ..brain.kinds import ACTUATOR, HIDDEN, SENSOR
 from ..errors import bad
-from ..modules.partition import Partition
 from ..sim.body import Body
+from ..sim.partition import Partition
 
 OPERATOR_NAMES = ("mutate_edge", "add_edge", "remove_edge", "add_node", "remove_node")
 NODE_PLACEMENTS = ("module", "uniform")
@@ -53,8 +55,9 @@ class OperatorConfig:
         Weight of same-module pairs in ``add_edge`` and ``add_node`` (other pairs weigh 1);
         used only when a partition is given.
     node_placement : str
-        ``module`` (paper): a node added between two nodes of one module goes to a random voxel
-        of that module; ``uniform`` (authors' code): to a random voxel of the body.
+        ``module`` (paper): with omega != 1, a node added between two nodes of one module goes
+        to a random voxel of that module; ``uniform`` (authors' code), or omega = 1: to a random
+        voxel of the body.
     """
 
     p_mutate_edge: float = 0.5
@@ -161,7 +164,7 @@ def add_edge(
     mask = _pair_mask(index.kind)
     mask[index.src, index.dst] = False
     np.fill_diagonal(mask, False)
-    pick = _pick_pair(mask, _node_modules(genome, partition), omega, rng)
+    pick = _pick_pair(mask, _node_modules(genome, partition, omega), omega, rng)
     if pick is None:
         return copy.copy(genome)
     u, v = pick
@@ -189,13 +192,13 @@ def add_node(
     """Add a hidden node w and edges u -> w -> v for a modularity-weighted pair (u, v).
 
     ``node_placement="module"`` puts w in a uniformly random voxel of the module of u and v when
-    a partition is given and they share a module, otherwise in a uniformly random voxel of the
-    body; ``"uniform"`` always does the latter.
+    a partition is given, omega != 1 and they share a module, otherwise in a uniformly random
+    voxel of the body; ``"uniform"`` always does the latter.
     """
     if node_placement not in NODE_PLACEMENTS:
         raise bad("node_placement", node_placement, f"use one of {NODE_PLACEMENTS}")
     index = genome.index
-    modules = _node_modules(genome, partition)
+    modules = _node_modules(genome, partition, omega)
     pick = _pick_pair(_pair_mask(index.kind), modules, omega, rng)
     if pick is None:
         return copy.copy(genome)
@@ -282,8 +285,11 @@ def _pair_mask(kind: np.ndarray) -> np.ndarray:
     return (kind != ACTUATOR)[:, None] & (kind != SENSOR)[None, :]
 
 
-def _node_modules(genome: Genome, partition: Partition | None) -> np.ndarray | None:
-    """(N,) module of each node's voxel, or None without a partition."""
+def _node_modules(
+    genome: Genome, partition: Partition | None, omega: float
+) -> np.ndarray | None:
+    """(N,) module of each node's voxel; None without a partition or with omega = 1, which
+    is neutral (no bias in the pair and none in the placement of a new node)."""
     if partition is None:
         return None
     if partition.shape != genome.body.shape:
@@ -292,7 +298,7 @@ def _node_modules(genome: Genome, partition: Partition | None) -> np.ndarray | N
             f"partition is for shape {partition.shape.grid_string()}, "
             f"the genome's body is {genome.body.shape.grid_string()}",
         )
-    return partition.module_index[genome.index.voxel]
+    return None if omega == 1.0 else partition.module_index[genome.index.voxel]
 
 
 def _pick_pair(mask, modules, omega: float, rng: np.random.Generator) -> tuple[int, int] | None:
@@ -302,7 +308,7 @@ def _pick_pair(mask, modules, omega: float, rng: np.random.Generator) -> tuple[i
     flat = np.flatnonzero(mask)
     if flat.size == 0:
         return None
-    if modules is None or omega == 1.0:
+    if modules is None:
         k = flat[rng.integers(flat.size)]
     else:
         same = (modules[:, None] == modules[None, :]).ravel()[flat]

@@ -16,5 +16,19 @@ LOG_COLUMNS = (
     "median_size",
     "best_operator",
     "nan_count",
+    "validation_velocity",
 )
-"""One row per generation, in this order."""
+"""One row per generation, in this order. ``validation_velocity`` is the best's mean v_x on
+the fixed validation terrains, in the rows where it was measured (empty elsewhere)."""
+
+
+def format_cell(value) -> str:
+    """A log cell: floats exactly (repr), None as an empty cell."""
+    if value is None:
+        return ""
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def format_row(row: dict) -> str:
+    """A log row as one CSV line (no newline), the columns in :data:`LOG_COLUMNS` order."""
+    return ",".join(format_cell(row[c]) for c in LOG_COLUMNS)

@@ -3,7 +3,8 @@
 The paper (section 6) re-evolves a reassembled genome G' with the same EA, starting from G'
 and mutants of it, for 510 generations, and plots rho = v_x(best) / mean(v_x(donors)) along the
 way (Figures 7, 8). Here every velocity in rho is measured on the same fixed validation terrains
-(decisions.md), and the best of each generation is evaluated once per distinct genome.
+(decisions.md), and the best of each generation is evaluated once per distinct genome. Means and
+rho follow :mod:`somite.tasks.velocity` (NaN on any terrain: NaN).
 """
 
 from __future__ import annotations
@@ -14,32 +15,32 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
-import numpy as np
-
 from .._io import write_atomic
 from ..brain.genome import Genome
 from ..sim.config import SimConfig
 from ..tasks.validation import evaluate, validation_terrains
+from ..tasks.velocity import mean_velocity, rho
 from .runner import RunDirectory
 
 TRANSFER_COLUMNS = ("generation", "training_velocity", "validation_velocity", "rho")
 
 
-def donor_velocity(donors: Sequence[Genome], config: SimConfig, n_terrains: int) -> float:
-    """Mean over donors of each donor's mean v_x on the validation terrains."""
+def donor_velocities(donors: Sequence[Genome], config: SimConfig, n_terrains: int) -> list[float]:
+    """Each donor's mean v_x [m/s] on the validation terrains."""
     velocities = evaluate(list(donors), validation_terrains(n_terrains), config)
-    return float(np.mean(np.nanmean(velocities, axis=1)))
+    return [float(v) for v in mean_velocity(velocities, axis=1)]
 
 
-def transfer_curve(run: str | Path, donors_mean: float | None, config: SimConfig,
+def transfer_curve(run: str | Path, donors: Sequence[float], config: SimConfig,
                    n_terrains: int = 10) -> list[dict]:
-    """rho of every generation's best, from ``bests.jsonl``; written to ``transfer.csv``."""
+    """rho of every generation's best against the donors' mean velocities ``donors`` (empty:
+    no rho), from ``bests.jsonl``; written to ``transfer.csv``."""
     run_dir = RunDirectory(run)
     entries = [json.loads(line) for line in run_dir.file("bests.jsonl").read_text().splitlines()]
     keys = [json.dumps(e["genome"], sort_keys=True) for e in entries]
     distinct = list(dict.fromkeys(keys))
     genomes = [Genome.from_dict(json.loads(k)) for k in distinct]
-    velocities = np.nanmean(evaluate(genomes, validation_terrains(n_terrains), config), axis=1)
+    velocities = mean_velocity(evaluate(genomes, validation_terrains(n_terrains), config), axis=1)
     by_key = dict(zip(distinct, velocities))
     rows = []
     for entry, key in zip(entries, keys):
@@ -48,7 +49,7 @@ def transfer_curve(run: str | Path, donors_mean: float | None, config: SimConfig
             "generation": entry["generation"],
             "training_velocity": entry["velocity"],
             "validation_velocity": validation,
-            "rho": validation / donors_mean if donors_mean else None,
+            "rho": rho(validation, *donors) if donors else None,
         })
     out = io.StringIO()
     writer = csv.DictWriter(out, TRANSFER_COLUMNS, lineterminator="\n")

@@ -2,15 +2,15 @@
 
 A run directory holds
 
-- ``config.json``: the resolved :class:`~somite.evolution.config.EvolutionConfig`;
+- ``config.json``: the resolved :class:`~somite.experiments.config.RunConfig`, flat;
 - ``log.csv``: one row per generation (:data:`LOG_COLUMNS`);
 - ``bests.jsonl``: the best genome of every generation, one compact JSON object a line;
 - ``best.json``: the best genome so far with its body (any command that takes a genome reads it);
-- ``checkpoint.json``: population, fitness, origins and generator state, written atomically
-  every ``checkpoint_every`` generations and at the end.
+- ``checkpoint.json``: population, fitness, origins and both generators' states, written
+  atomically at generation 0, every ``checkpoint_every`` generations and at the end.
 
 ``--resume`` cuts ``log.csv`` and ``bests.jsonl`` back to the checkpoint's generation and goes
-on from there; as every random draw comes from the checkpointed generator, the resumed run
+on from there; as every random draw comes from the checkpointed generators, the resumed run
 writes the same rows and the same best genome as one that was never interrupted.
 """
 
@@ -20,103 +20,53 @@ import csv
 import io
 import json
 import math
-import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
-
-import numpy as np
 
 from .._io import write_atomic
 from ..brain.genome import Genome
 from ..errors import bad
-from ..evolution.config import EvolutionConfig, resolve
-from ..evolution.ea import (
-    Evaluator,
-    Population,
-    generation,
-    initial_population,
-    seeded_population,
-    statistics,
-)
-from ..modules.partition import Partition
-from ..sim.body import Body
-from .logfile import LOG_COLUMNS
+from ..evolution.config import GAConfig
+from ..evolution.ea import GraphEA
+from ..sim.body import Shape
+from .config import RunConfig, resolve
+from .logfile import LOG_COLUMNS, format_row
 
 RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json")
 CHECKPOINT_FORMAT = "somite-checkpoint"
-CHECKPOINT_VERSION = 1
+CHECKPOINT_VERSION = 2
+"""Version 2 (issue 9): two generators (variation, evaluation) instead of one. A version-1
+checkpoint cannot be resumed: its single generator's draws are not the two of version 2."""
 
 
-@dataclass
-class RunState:
-    """Where a run stands: the parents, the generator and the bookkeeping counters."""
-
-    generation: int
-    evaluations: int
-    elapsed: float
-    population: Population
-    rng: np.random.Generator
-
-
-def _json_number(value: float) -> float | None:
-    return None if math.isnan(value) else float(value)
-
-
-def save_checkpoint(path: Path, state: RunState) -> None:
-    data = {
-        "format": CHECKPOINT_FORMAT,
-        "version": CHECKPOINT_VERSION,
-        "generation": state.generation,
-        "evaluations": state.evaluations,
-        "elapsed_seconds": state.elapsed,
-        "rng": state.rng.bit_generator.state,
-        "fitness": [_json_number(f) for f in state.population.fitness],
-        "origins": state.population.origins,
-        "population": [json.loads(g.to_compact()) for g in state.population.genomes],
-    }
+def save_checkpoint(path: Path, ea: GraphEA) -> None:
+    data = {"format": CHECKPOINT_FORMAT, "version": CHECKPOINT_VERSION, **ea.state()}
     write_atomic(path, json.dumps(data, separators=(",", ":")))
 
 
-def load_checkpoint(path: Path) -> RunState:
-    """Read a checkpoint; anything missing or damaged is a one-line error."""
+def load_checkpoint(path: Path, config: GAConfig) -> GraphEA:
+    """Read a checkpoint; anything missing, damaged or of another version is a one-line
+    error."""
     if not path.is_file():
         raise bad("resume", str(path.parent), "no checkpoint.json in this run directory")
     try:
         data = json.loads(path.read_text())
-        if data.get("format") != CHECKPOINT_FORMAT or data.get("version") != CHECKPOINT_VERSION:
-            raise ValueError("unknown format or version")
-        rng = np.random.default_rng()
-        rng.bit_generator.state = data["rng"]
-        genomes = [Genome.from_dict(g) for g in data["population"]]
-        fitness = np.array([math.nan if f is None else f for f in data["fitness"]], float)
-        origins = [str(o) for o in data["origins"]]
-        if not (len(genomes) == len(fitness) == len(origins)) or not genomes:
-            raise ValueError("population, fitness and origins differ in length")
-        return RunState(
-            generation=int(data["generation"]),
-            evaluations=int(data["evaluations"]),
-            elapsed=float(data["elapsed_seconds"]),
-            population=Population(genomes, fitness, origins),
-            rng=rng,
-        )
+    except ValueError as error:
+        raise bad("checkpoint", str(path), f"damaged checkpoint ({error})") from None
+    if not isinstance(data, dict) or data.get("format") != CHECKPOINT_FORMAT:
+        raise bad("checkpoint", str(path), "damaged checkpoint (not a somite checkpoint)")
+    if data.get("version") != CHECKPOINT_VERSION:
+        raise bad("checkpoint", str(path),
+                  f"version {data.get('version')} cannot be resumed by this somite (it reads "
+                  f"version {CHECKPOINT_VERSION}); start the run again")
+    try:
+        return GraphEA.restore(data, config)
     except (ValueError, KeyError, TypeError, AttributeError) as error:
         raise bad("checkpoint", str(path), f"damaged checkpoint ({error})") from None
 
 
-def _log_row(state: RunState, stats: dict) -> dict:
-    return {
-        "generation": state.generation,
-        "evaluations": state.evaluations,
-        "elapsed_seconds": round(state.elapsed, 3),
-        **stats,
-    }
-
-
-def _format(value) -> str:
-    if isinstance(value, float):
-        return repr(value)
-    return str(value)
+def _json_number(value: float) -> float | None:
+    return None if math.isnan(value) else float(value)
 
 
 class RunDirectory:
@@ -131,7 +81,7 @@ class RunDirectory:
     def has_run(self) -> bool:
         return any(self.file(name).exists() for name in RUN_FILES)
 
-    def prepare_new(self, config: EvolutionConfig, force: bool) -> None:
+    def prepare_new(self, config: RunConfig, force: bool) -> None:
         if self.path.exists() and not self.path.is_dir():
             raise bad("out", str(self.path), "exists and is not a directory")
         if self.has_run() and not force:
@@ -143,7 +93,7 @@ class RunDirectory:
         write_atomic(self.file("log.csv"), ",".join(LOG_COLUMNS) + "\n")
         write_atomic(self.file("bests.jsonl"), "")
 
-    def saved_config(self) -> EvolutionConfig:
+    def saved_config(self) -> RunConfig:
         path = self.file("config.json")
         if not path.is_file():
             raise bad("resume", str(self.path), "no config.json in this run directory")
@@ -179,86 +129,72 @@ class RunDirectory:
                     break
         write_atomic(bests, "".join(line + "\n" for line in kept))
 
-    def append(self, state: RunState, stats: dict) -> None:
-        row = _log_row(state, stats)
+    def append(self, row: dict, best: Genome) -> None:
+        """Write a generation's log row and its best genome."""
         with open(self.file("log.csv"), "a", encoding="utf-8") as handle:
-            handle.write(",".join(_format(row[c]) for c in LOG_COLUMNS) + "\n")
-        best = state.population.genomes[state.population.best()]
+            handle.write(format_row(row) + "\n")
         entry = {
-            "generation": state.generation,
-            "velocity": _json_number(stats["best_velocity"]),
-            "operator": stats["best_operator"],
+            "generation": row["generation"],
+            "velocity": _json_number(row["best_velocity"]),
+            "operator": row["best_operator"],
             "genome": json.loads(best.to_compact()),
         }
         with open(self.file("bests.jsonl"), "a", encoding="utf-8") as handle:
             handle.write(json.dumps(entry, separators=(",", ":")) + "\n")
 
-    def save(self, state: RunState) -> None:
-        best = state.population.genomes[state.population.best()]
-        best.save(self.file("best.json"))
-        save_checkpoint(self.file("checkpoint.json"), state)
+    def save(self, ea: GraphEA) -> None:
+        ea.best.save(self.file("best.json"))
+        save_checkpoint(self.file("checkpoint.json"), ea)
 
 
-Progress = Callable[[RunState, dict], None]
+Progress = Callable[[GraphEA, dict], None]
+
+
+def step(ea: GraphEA, task, config: RunConfig) -> dict:
+    """One generation: ask, evaluate with ``task`` on the EA's evaluation generator, tell, and
+    (when due) the best's mean v_x on the validation terrains. Returns the log row."""
+    genomes = ea.ask()
+    row = ea.tell(genomes, task.evaluate(genomes, rng=ea.rng_evaluation))
+    if config.validation_due(ea.generation):
+        row["validation_velocity"] = task.validation_velocity(ea.best)
+    return row
 
 
 def evolve(
-    config: EvolutionConfig,
+    config: RunConfig,
     out: str | Path,
     resume: bool = False,
     force: bool = False,
     progress: Progress | None = None,
     start: Genome | None = None,
-) -> RunState:
-    """Run (or resume) an evolution into the run directory ``out``; returns the final state.
+) -> GraphEA:
+    """Run (or resume) an evolution into the run directory ``out``; returns the EA at the end.
 
-    With ``start`` (a re-optimisation), the first population is ``start`` and mutants of it,
-    and the body is ``start``'s; otherwise the body is built from the configuration.
-    ``progress`` is called after every generation with the state and the log row.
+    With ``start`` (a re-optimisation), the first population is ``start`` and mutants of it;
+    its shape must be the configuration's. ``progress`` is called after every generation with
+    the EA and the log row.
     """
     run_dir = RunDirectory(out)
     if resume:
-        state = load_checkpoint(run_dir.file("checkpoint.json"))
-        body = state.population.genomes[0].body
+        ea = load_checkpoint(run_dir.file("checkpoint.json"), config.ga)
     else:
-        body = start.body if start is not None else Body.build(config.shape, config.sensors)
-    partition = Partition.parse(config.modules, body.shape) if config.omega != 1.0 else None
-    evaluate = Evaluator(body, config)
+        body = config.body() if start is None else start.body
+        if body.shape != Shape.parse(config.shape):
+            raise bad("shape", config.shape,
+                      f"the start genome's shape is {body.shape.grid_string()}")
+        ea = GraphEA(body, seed=config.seed, start=start, config=config.ga)
+    task = config.task(ea.body)
     if resume:
-        run_dir.cut_back(state.generation)
+        run_dir.cut_back(ea.generation)
     else:
         run_dir.prepare_new(config, force)
-        started = time.perf_counter()
-        rng = np.random.default_rng(config.seed)
-        if start is None:
-            population = initial_population(body, config, evaluate, rng)
-        else:
-            population = seeded_population(start, config, evaluate, rng, partition,
-                                           config.n_seeded_mutants())
-        state = RunState(0, len(population.genomes), time.perf_counter() - started,
-                         population, rng)
-        _record(run_dir, state, statistics(population, population.fitness), progress)
-        run_dir.save(state)
-    while state.generation < config.generations:
-        started = time.perf_counter()
-        population, computed = generation(state.population, config, evaluate, state.rng,
-                                          partition)
-        state = RunState(
-            state.generation + 1,
-            state.evaluations + len(computed),
-            state.elapsed + time.perf_counter() - started,
-            population,
-            state.rng,
-        )
-        _record(run_dir, state, statistics(population, computed), progress)
-        if state.generation % config.checkpoint_every == 0 or (
-            state.generation == config.generations
+    while ea.generation < config.generations:
+        row = step(ea, task, config)
+        run_dir.append(row, ea.best)
+        if progress is not None:
+            progress(ea, row)
+        if ea.generation % config.checkpoint_every == 0 or ea.generation in (
+            0, config.generations
         ):
-            run_dir.save(state)
-    return state
-
-
-def _record(run_dir: RunDirectory, state: RunState, stats: dict, progress: Progress | None):
-    run_dir.append(state, stats)
-    if progress is not None:
-        progress(state, _log_row(state, stats))
+            run_dir.save(ea)
+    return ea

@@ -25,26 +25,21 @@ Sums use ``math.fsum``, so equal sets of edges give bit-equal sums whatever the 
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from fractions import Fraction
-from pathlib import Path
 
 import numpy as np
 
 from ..brain.genome import Genome
 from ..errors import bad
 from ..sim.body import Shape, component
-from .partition import Partition
+from ..sim.partition import Partition
 
 Voxel = tuple[int, int]
 
 MAX_CANDIDATES = 1_000_000
 """Refuse enumerations larger than this (a big body with a large b_max): they would not fit."""
-
-PARTITION_FORMAT = "somite-partition"
-PARTITION_VERSION = 1
 
 
 @dataclass(frozen=True)
@@ -226,52 +221,12 @@ def discover(genome: Genome, b_min: int = 2, b_max: int = 5) -> Partition:
     return partition_around(genome.body.shape, best.voxels)
 
 
-# -- partition files ------------------------------------------------------------------------------
-
-
-def partition_to_dict(partition: Partition, **extra) -> dict:
-    """A partition as JSON: the grid of labels (rows from the top) and each module's voxels."""
-    return {
-        "format": PARTITION_FORMAT,
-        "version": PARTITION_VERSION,
-        "shape": partition.shape.grid_string(),
-        "grid": partition.grid_string(),
-        "modules": {
-            label: [list(v) for v in partition.voxels_of(label)] for label in partition.modules
-        },
-        **extra,
-    }
-
-
-def partition_from_spec(spec: str, shape: Shape) -> Partition:
-    """A preset name, a grid of labels, or the path of a ``partition.json`` file for ``shape``."""
-    text = str(spec)
-    path = Path(text)
-    if text.endswith(".json"):
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-            raise bad("partition", text, f"cannot read a partition file ({error})") from None
-        if not isinstance(data, dict) or data.get("format") != PARTITION_FORMAT:
-            raise bad("partition", text, f"not a {PARTITION_FORMAT!r} file")
-        if data.get("version") != PARTITION_VERSION:
-            raise bad(
-                "partition", text,
-                f"version {data.get('version')!r} unsupported; this somite reads "
-                f"{PARTITION_VERSION}",
-            )
-        return Partition.from_grid(data.get("grid", ""), shape)
-    return Partition.parse(text, shape)
-
-
 __all__ = [
     "Candidate",
     "check_bounds",
     "connected_sets",
     "discover",
     "partition_around",
-    "partition_from_spec",
-    "partition_to_dict",
     "rank_candidates",
     "score",
 ]

@@ -29,7 +29,7 @@ from dataclasses import dataclass, fields
 from ..brain.genome import Edge, Genome, Node
 from ..errors import bad
 from ..sim.body import Body
-from .module import Module, Voxel, _readings
+from .module import Module, Voxel
 
 
 @dataclass(frozen=True)
@@ -126,9 +126,7 @@ def graft(body: Body, grafts: Sequence[Graft]) -> tuple[Genome, tuple[GraftRepor
         The controller (nodes sorted by id) and one report per graft, in order.
     """
     _check_targets(body, grafts)
-    slot_of = [
-        {reading: s for s, reading in enumerate(_readings(kinds))} for kinds in body.sensors
-    ]
+    slot_of = [{reading: s for s, reading in enumerate(slots)} for slots in body.slots]
     voxel_index = {v: i for i, v in enumerate(body.shape.voxels)}
     placed: dict[_Key, tuple[int, Node]] = {}  # key -> (graft position, donor node)
     kept_edges: list[tuple[_Key, _Key, Edge, int]] = []
@@ -207,9 +205,9 @@ def _map_nodes(step: Graft, g: int, voxel_index: dict, slot_of: list) -> dict[in
 def _plain_keys(body: Body, placed: dict) -> list[_Key]:
     """Receiver readings and actuators that no module node reached, in the body's order."""
     missing = []
-    for v, kinds in enumerate(body.sensors):
-        n_slots = len(_readings(kinds))
-        missing.extend(("sensor", v, s) for s in range(n_slots) if ("sensor", v, s) not in placed)
+    for v, slots in enumerate(body.slots):
+        readings = (("sensor", v, s) for s in range(len(slots)))
+        missing.extend(key for key in readings if key not in placed)
         if ("actuator", v) not in placed:
             missing.append(("actuator", v))
     return missing

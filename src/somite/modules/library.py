@@ -415,5 +415,4 @@ __all__ = [
     "module_to_dict",
     "parse_placement",
     "provenance_of",
-    "write_atomic",
 ]

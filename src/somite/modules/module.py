@@ -22,8 +22,8 @@ import numpy as np
 
 from ..brain.genome import Edge, Genome, Node
 from ..errors import bad
-from ..sim.body import SENSOR_WIDTH, Body, Shape, is_connected
-from .partition import Partition
+from ..sim.body import Body, Shape, is_connected, voxel_readings
+from ..sim.partition import Partition
 
 Voxel = tuple[int, int]
 
@@ -76,10 +76,8 @@ class Module:
         object.__setattr__(self, "_genome", _standalone(self))
 
     def __repr__(self) -> str:
-        return (
-            f"Module({self.label!r}, voxels={len(self.voxels)}, nodes={len(self.nodes)}, "
-            f"edges={len(self.edges)})"
-        )
+        counts = f"voxels={self.size}, nodes={len(self.nodes)}, edges={len(self.edges)}"
+        return f"Module({self.label!r}, {counts})"
 
     @property
     def size(self) -> int:
@@ -112,7 +110,7 @@ class Module:
 
     def reading(self, node: Node) -> tuple[str, int]:
         """(sensor kind, component) of a sensor node of this module."""
-        return _readings(self.sensors[self.voxels.index((node.x, node.y))])[node.slot]
+        return voxel_readings(self.sensors[self.voxels.index((node.x, node.y))])[node.slot]
 
 
 def _standalone(module: Module) -> Genome:
@@ -128,11 +126,6 @@ def _standalone(module: Module) -> Genome:
     body = Body(shape, tuple(kinds[(x + x0, y + y0)] for x, y in shape.voxels))
     nodes = tuple(Node(n.id, n.x - x0, n.y - y0, n.kind, n.slot) for n in module.nodes)
     return Genome(body, nodes, module.edges)
-
-
-def _readings(kinds: Sequence[str]) -> list[tuple[str, int]]:
-    """(kind, component) of each reading slot of a voxel with sensors ``kinds``."""
-    return [(kind, c) for kind in kinds for c in range(SENSOR_WIDTH[kind])]
 
 
 # -- disassembly and cut ratios -------------------------------------------------------------------

@@ -1,29 +1,17 @@
 """Transferability of a reassembled robot (paper eq. 4).
 
 rho = v(reassembled) / mean(v(donor 1), v(donor 2)), every v the mean v_x over the same fixed
-validation terrains (decisions.md).
+validation terrains (decisions.md); the means and rho are :mod:`somite.tasks.velocity`'s, with
+its one NaN rule (NaN on any terrain: NaN).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from ..brain.genome import Genome
+from ..tasks.velocity import mean_velocity, rho
 from .module import _finite_or_none
-
-
-def rho(v_reassembled: float, v_donor1: float, v_donor2: float) -> float:
-    """Transferability, paper eq. 4: v_reassembled / ((v_donor1 + v_donor2) / 2).
-
-    NaN when the donors' mean velocity is 0 (or any velocity is NaN).
-    """
-    mean = (v_donor1 + v_donor2) / 2
-    if mean == 0 or not math.isfinite(mean):
-        return math.nan
-    return v_reassembled / mean
 
 
 @dataclass(frozen=True)
@@ -47,7 +35,7 @@ class Transferability:
     def means(self) -> tuple[float, float, float]:
         """Mean v_x of the reassembled robot, donor 1 and donor 2."""
         return tuple(
-            float(np.mean(v)) if v else math.nan
+            float(mean_velocity(v))
             for v in (self.v_reassembled, self.v_donor1, self.v_donor2)
         )
 

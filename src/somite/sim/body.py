@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable
 from dataclasses import dataclass
+from functools import cached_property
 
 from ..errors import bad
 
@@ -20,6 +21,15 @@ SENSOR_KINDS = ("area", "touch", "velocity", "lidar")
 
 SENSOR_WIDTH = {"area": 1, "touch": 1, "velocity": 2, "lidar": 5}
 """How many scalar readings one sensor of each kind gives."""
+
+
+def voxel_readings(kinds: Iterable[str]) -> tuple[tuple[str, int], ...]:
+    """(sensor kind, component) of each reading slot of a voxel with sensors ``kinds``.
+
+    Sensor by sensor in the order given, component by component: a sensor node's ``slot`` is a
+    position in this tuple. The one definition of a voxel's slots.
+    """
+    return tuple((kind, c) for kind in kinds for c in range(SENSOR_WIDTH[kind]))
 
 PRESET_SHAPES = {
     "biped": "1111/1111/1001",
@@ -211,18 +221,21 @@ class Body:
                     raise bad("sensor", kind, f"unknown sensor kind; use one of {SENSOR_KINDS}")
         return cls(shape, ordered)
 
-    @property
+    @cached_property
+    def slots(self) -> tuple[tuple[tuple[str, int], ...], ...]:
+        """Per voxel, its reading slots (see :func:`voxel_readings`)."""
+        return tuple(voxel_readings(kinds) for kinds in self.sensors)
+
+    @cached_property
     def readings(self) -> tuple[Reading, ...]:
-        """Every scalar reading, in the body's stable order."""
-        out = []
-        for v, kinds in enumerate(self.sensors):
-            for kind in kinds:
-                out.extend(Reading(v, kind, c) for c in range(SENSOR_WIDTH[kind]))
-        return tuple(out)
+        """Every scalar reading, in the body's stable order: voxel by voxel, slot by slot."""
+        return tuple(
+            Reading(v, kind, c) for v, slots in enumerate(self.slots) for kind, c in slots
+        )
 
     @property
     def n_readings(self) -> int:
-        return sum(SENSOR_WIDTH[k] for kinds in self.sensors for k in kinds)
+        return len(self.readings)
 
     def to_dict(self) -> dict:
         return {

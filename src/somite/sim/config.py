@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -23,6 +24,8 @@ LIDAR_ORIGINAL = (-math.pi / 5, -math.pi / 10, 0.0, math.pi / 10, math.pi / 5)
 
 ACTIVATIONS = ("tanh", "sigmoid")
 FRAMES = ("world", "voxel")
+NOISE_STREAMS = ("independent", "java-random-0")
+VOXEL_ANGLES = ("vector-mean", "angle-mean")
 
 
 @dataclass(frozen=True)
@@ -31,20 +34,34 @@ class SimConfig:
 
     Lengths in m, times in s, masses in kg. ``*_window`` are moving-average windows in control
     steps (1 = the current reading only).
+
+    ``noise_stream``: ``independent`` (somite) draws every reading's noise afresh from the
+    robot's seed, step and reading; ``java-random-0`` (the authors' code) gives every sensor of
+    every voxel the same ``java.util.Random(0)`` Gaussian sequence, restarted each episode, so
+    the seed is ignored (original-system.md section 2.1).
+
+    ``voxel_angle``, the voxel's orientation for voxel-frame sensors: ``vector-mean`` (somite)
+    is the direction of the sum of the bottom and top side vectors; ``angle-mean`` (the authors'
+    code) is the plain mean of the two sides' atan2 angles, which is off by pi when the two
+    straddle +-pi, as for an upside-down voxel (original-system.md section 1.2).
     """
 
     duration: float = 30.0
     transient: float = 5.0
     start_gap: float = 1.0
     substeps: int = 8
-    spring_hz: float = 8.0
-    damping_ratio: float = 0.3
+    spring_hz: float = 6.569
+    damping_ratio: float = 0.598
+    diagonal_stiffness: float = 1.45
     area_delta: float = 0.225
-    min_length_ratio: float = 0.5
+    min_side_ratio: float = 0.708
+    min_diagonal_ratio: float = 0.5
+    min_area_ratio: float = 0.3
     gravity: float = 9.8
     drag: float = 0.1
-    friction: float = 1.4
-    max_peak_depth: float = 0.2
+    friction: float = 1.48
+    max_peak_depth: float = 0.066
+    contact_radius: float = 0.406
     noise_sigma: float = 0.01
     lidar_range: float = 10.0
     lidar_angles: tuple[float, ...] = LIDAR_PAPER
@@ -54,6 +71,8 @@ class SimConfig:
     velocity_frame: str = "world"
     velocity_max: float = 8.0
     hidden_activation: str = "tanh"
+    noise_stream: str = "independent"
+    voxel_angle: str = "vector-mean"
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -65,25 +84,29 @@ class SimConfig:
         if self.transient < 0:
             raise bad("transient", self.transient, "must be zero or positive")
         _positive_int(self, "substeps", "touch_window", "velocity_window")
-        for name in ("spring_hz", "lidar_range", "velocity_max", "gravity"):
+        for name in ("spring_hz", "lidar_range", "velocity_max", "gravity", "diagonal_stiffness"):
             if not getattr(self, name) > 0:
                 raise bad(name, getattr(self, name), "must be positive")
         non_negative = (
-            "start_gap", "damping_ratio", "drag", "friction", "noise_sigma", "max_peak_depth"
+            "start_gap", "damping_ratio", "drag", "friction", "noise_sigma", "max_peak_depth",
+            "contact_radius",
         )
         for name in non_negative:
             if getattr(self, name) < 0:
                 raise bad(name, getattr(self, name), "must be zero or positive")
         if not 0 <= self.area_delta < 1:
             raise bad("area_delta", self.area_delta, "must be in [0, 1)")
-        if not 0 < self.min_length_ratio < 1:
-            raise bad("min_length_ratio", self.min_length_ratio, "must be in (0, 1)")
+        for name in ("min_side_ratio", "min_diagonal_ratio", "min_area_ratio"):
+            if not 0 < getattr(self, name) < 1:
+                raise bad(name, getattr(self, name), "must be in (0, 1)")
         if len(self.lidar_angles) != 5:
             raise bad("lidar_angles", self.lidar_angles, "a lidar has exactly 5 rays")
         for name, allowed in (
             ("lidar_frame", FRAMES),
             ("velocity_frame", FRAMES),
             ("hidden_activation", ACTIVATIONS),
+            ("noise_stream", NOISE_STREAMS),
+            ("voxel_angle", VOXEL_ANGLES),
         ):
             if getattr(self, name) not in allowed:
                 raise bad(name, getattr(self, name), f"use one of {allowed}")
@@ -128,6 +151,8 @@ PRESETS: dict[str, dict] = {
         "touch_window": 16,
         "velocity_window": 31,
         "velocity_frame": "voxel",
+        "noise_stream": "java-random-0",
+        "voxel_angle": "angle-mean",
     },
 }
 """The simulation half of each preset (decisions.md, "Two presets, one code path")."""
@@ -140,57 +165,67 @@ def preset(name: str, **options) -> SimConfig:
     return SimConfig().with_options(**{**PRESETS[name], **options})
 
 
-# Layout of the packed parameter vector read by the kernels.
-(
-    P_DT,
-    P_SUBSTEPS,
-    P_STIFFNESS,
-    P_DAMPING,
-    P_GRAVITY,
-    P_DRAG,
-    P_FRICTION,
-    P_CONTRACT,
-    P_EXPAND,
-    P_MIN_LENGTH,
-    P_PEAK_DEPTH,
-    P_NOISE,
-    P_LIDAR_RANGE,
-    P_LIDAR_FRAME,
-    P_TOUCH_WINDOW,
-    P_VELOCITY_WINDOW,
-    P_VELOCITY_FRAME,
-    P_VELOCITY_MAX,
-    P_HIDDEN_SIGMOID,
-    P_LIDAR0,
-) = range(20)
-N_PARAMS = P_LIDAR0 + 5
+class Params(NamedTuple):
+    """What the kernels read of a :class:`SimConfig`: derived numbers, typed, SI units."""
+
+    dt: float  # [s] one physics substep
+    substeps: int  # physics substeps per control step
+    stiffness: float  # [N/m] of one side spring (two corner masses, ``spring_hz``)
+    damping: float  # [N s/m] of one side spring (``damping_ratio``)
+    gravity: float  # [m/s^2]
+    drag: float  # [1/s]
+    friction: float  # Coulomb coefficient
+    contract: float  # rest-length scale at actuation +1
+    expand: float  # rest-length scale at actuation -1
+    diagonal: float  # stiffness of a diagonal over a side's
+    min_side: float  # hard lower limit of a side over its rest length
+    min_diagonal: float  # the same for a diagonal
+    min_area: float  # lower limit of a voxel's signed area over its rest area
+    peak_depth: float  # [m] how far a terrain vertex may sink into an outer side
+    radius: float  # [m] of the contact disc at each corner
+    noise: float  # sensor noise sigma
+    lidar_range: float  # [m]
+    lidar_frame: int  # FRAMES index
+    touch_window: int  # control steps
+    velocity_window: int  # control steps
+    velocity_frame: int  # FRAMES index
+    velocity_max: float  # [m/s]
+    hidden_sigmoid: bool  # hidden neurons: sigmoid (else tanh)
+    transient_steps: int  # control steps before v_x is measured
+    voxel_angle: int  # VOXEL_ANGLES index
+    lidar_angles: np.ndarray  # (5,) ray angles [rad] (an array: prange kernels take no
+    # tuples inside tuples)
 
 
-def pack_params(config: SimConfig) -> np.ndarray:
-    """The kernel's view of ``config``: one float64 vector indexed by ``P_*``."""
+def pack_params(config: SimConfig) -> Params:
+    """The kernels' view of ``config``."""
     omega = 2 * math.pi * config.spring_hz
     reduced_mass = CORNER_MASS / 2  # two corner masses joined by one spring
-    params = np.zeros(N_PARAMS, dtype=np.float64)
-    params[P_DT] = 1.0 / CONTROL_HZ / config.substeps
-    params[P_SUBSTEPS] = config.substeps
-    params[P_STIFFNESS] = reduced_mass * omega**2
-    params[P_DAMPING] = 2 * reduced_mass * config.damping_ratio * omega
-    params[P_GRAVITY] = config.gravity
-    params[P_DRAG] = config.drag
-    params[P_FRICTION] = config.friction
-    params[P_CONTRACT] = math.sqrt(1 - config.area_delta)
-    params[P_EXPAND] = math.sqrt(1 + config.area_delta)
-    params[P_MIN_LENGTH] = config.min_length_ratio
-    params[P_PEAK_DEPTH] = config.max_peak_depth
-    params[P_NOISE] = config.noise_sigma
-    params[P_LIDAR_RANGE] = config.lidar_range
-    params[P_LIDAR_FRAME] = FRAMES.index(config.lidar_frame)
-    params[P_TOUCH_WINDOW] = config.touch_window
-    params[P_VELOCITY_WINDOW] = config.velocity_window
-    params[P_VELOCITY_FRAME] = FRAMES.index(config.velocity_frame)
-    params[P_VELOCITY_MAX] = config.velocity_max
-    params[P_HIDDEN_SIGMOID] = ACTIVATIONS.index(config.hidden_activation)
-    params[P_LIDAR0 : P_LIDAR0 + 5] = config.lidar_angles
-    return params
-
-
+    return Params(
+        dt=1.0 / CONTROL_HZ / config.substeps,
+        substeps=config.substeps,
+        stiffness=reduced_mass * omega**2,
+        damping=2 * reduced_mass * config.damping_ratio * omega,
+        gravity=float(config.gravity),
+        drag=float(config.drag),
+        friction=float(config.friction),
+        contract=math.sqrt(1 - config.area_delta),
+        expand=math.sqrt(1 + config.area_delta),
+        diagonal=float(config.diagonal_stiffness),
+        min_side=float(config.min_side_ratio),
+        min_diagonal=float(config.min_diagonal_ratio),
+        min_area=float(config.min_area_ratio),
+        peak_depth=float(config.max_peak_depth),
+        radius=float(config.contact_radius),
+        noise=float(config.noise_sigma),
+        lidar_range=float(config.lidar_range),
+        lidar_frame=FRAMES.index(config.lidar_frame),
+        touch_window=config.touch_window,
+        velocity_window=config.velocity_window,
+        velocity_frame=FRAMES.index(config.velocity_frame),
+        velocity_max=float(config.velocity_max),
+        hidden_sigmoid=config.hidden_activation == "sigmoid",
+        transient_steps=config.transient_steps,
+        voxel_angle=VOXEL_ANGLES.index(config.voxel_angle),
+        lidar_angles=np.array(config.lidar_angles, dtype=np.float64),
+    )

@@ -4,7 +4,9 @@ Every function here works on one robot's arrays (points ``pos``, ``vel`` of shap
 is called from the episode loop of :mod:`somite.tasks.episode`; the batch kernel runs that loop
 for each robot on its own thread. The integrator is semi-implicit (symplectic) Euler: velocities
 first from the forces, then positions from the new velocities, then the hard constraints
-(length limits, terrain) act on positions and velocities (decisions.md).
+(length limits, each voxel's orientation, contact of the outline with the terrain) act on
+positions and velocities. The contact model and its fitted parameters: README, "The
+simulator"; BENCHMARKS.md, "Fidelity".
 """
 
 from __future__ import annotations
@@ -12,17 +14,6 @@ from __future__ import annotations
 import math
 
 from .._jit import njit
-from .config import (
-    P_CONTRACT,
-    P_DAMPING,
-    P_DRAG,
-    P_DT,
-    P_EXPAND,
-    P_FRICTION,
-    P_GRAVITY,
-    P_PEAK_DEPTH,
-    P_STIFFNESS,
-)
 
 CONTACT_TOLERANCE = 0.01
 """A corner within this height [m] of the ground counts as touching it."""
@@ -40,11 +31,17 @@ def rest_length_factor(actuation: float, contract: float, expand: float) -> floa
 
 
 @njit
-def set_rest_lengths(n_voxels, n_springs, owners, rest0, actuation, params, factor, rest):
-    """Rest length of each spring for the voxels' current actuation (mean over its owners);
-    ``factor`` (V,) is scratch for the voxels' scales."""
-    contract = params[P_CONTRACT]
-    expand = params[P_EXPAND]
+def set_rest_lengths(robot, scratch, actuation, params):
+    """``scratch.rest``: the rest length of each spring for the voxels' current actuation
+    (V,), the mean over its owners."""
+    n_voxels = robot.n_voxels
+    n_springs = robot.n_springs
+    owners = robot.owners
+    rest0 = robot.rest0
+    factor = scratch.factor
+    rest = scratch.rest
+    contract = params.contract
+    expand = params.expand
     for v in range(n_voxels):
         factor[v] = rest_length_factor(actuation[v], contract, expand)
     for s in range(n_springs):
@@ -55,23 +52,39 @@ def set_rest_lengths(n_voxels, n_springs, owners, rest0, actuation, params, fact
 
 
 @njit(inline="always")
-def integrate(n_points, n_springs, ends, strength, rest, min_length, mass, inv_mass, pos, vel,
-              force, dxs, dys, dvx, dvy, fxs, fys, params):
+def integrate(robot, scratch, pos, vel, params):
     """One semi-implicit Euler step of springs, gravity and drag.
 
-    ``strength`` is the number of voxels owning each spring (1 or 2): parallel springs add up.
-    ``force`` must hold zeros on entry and holds zeros on exit; ``dxs`` .. ``fys`` are (S,)
-    scratch, separate arrays so that the compiler knows they do not overlap.
+    ``strength`` scales each spring's stiffness and damping: the number of voxels owning a side
+    (1 or 2: parallel springs add up), ``diagonal_stiffness`` for a diagonal.
+    ``scratch.force`` must hold zeros on entry and holds zeros on exit; ``scratch.dx`` ..
+    ``scratch.fy`` are (S,) work arrays, separate so that the compiler knows they do not
+    overlap.
     The springs go in three passes (gather, forces, scatter) so that the middle one has no
     branch and no indirect access, and compiles to SIMD code. It also counts the springs
     shorter than their ``min_length``; only when there are any (rarely) does the hard limit
     (:func:`enforce_min_lengths`) run, before the velocities change.
     """
-    dt = params[P_DT]
-    k = params[P_STIFFNESS]
-    c = params[P_DAMPING]
-    g = params[P_GRAVITY]
-    drag = params[P_DRAG]
+    n_points = robot.n_points
+    n_springs = robot.n_springs
+    ends = robot.ends
+    strength = robot.strength
+    min_length = robot.min_length
+    mass = robot.mass
+    inv_mass = robot.inv_mass
+    rest = scratch.rest
+    force = scratch.force
+    dxs = scratch.dx
+    dys = scratch.dy
+    dvx = scratch.dvx
+    dvy = scratch.dvy
+    fxs = scratch.fx
+    fys = scratch.fy
+    dt = params.dt
+    k = params.stiffness
+    c = params.damping
+    g = params.gravity
+    drag = params.drag
     for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
@@ -89,7 +102,7 @@ def integrate(n_points, n_springs, ends, strength, rest, min_length, mass, inv_m
         fxs[s] = f * dxs[s]
         fys[s] = f * dys[s]
     if n_short > 0:
-        enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel)
+        enforce_min_lengths(robot, pos, vel)
     for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
@@ -133,11 +146,15 @@ def push_apart(a, b, length, limit, dx, dy, inv_mass, pos, vel):
 
 
 @njit
-def enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel):
-    """Hard limit: no side or diagonal shorter than ``min_length_ratio`` of its rest length,
-    so no controller can collapse or invert a voxel. Run after the last substep of each
-    control step, so that what is sensed and recorded always obeys the limit."""
-    for s in range(n_springs):
+def enforce_min_lengths(robot, pos, vel):
+    """Hard limit: no side shorter than ``min_side_ratio`` of its rest length, no diagonal
+    than ``min_diagonal_ratio``, so no controller can collapse a voxel (inversion is
+    :func:`keep_orientation`'s). Also run after the last substep of each control step, so that
+    what is sensed and recorded always obeys the limit."""
+    ends = robot.ends
+    min_length = robot.min_length
+    inv_mass = robot.inv_mass
+    for s in range(robot.n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
         dx = pos[b, 0] - pos[a, 0]
@@ -183,20 +200,55 @@ def segment_near(xs, n, x, guess) -> int:
     return i
 
 
-@njit(inline="always")
-def ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n, first, hi_x,
-                   params):
-    """Push corners out of the ground onto its nearest segment; no bounce, Coulomb friction.
+@njit
+def ground_height(xs, ys, n, x, guess) -> float:
+    """Height [m] of the terrain at x (``guess``: a segment index near x)."""
+    i = segment_near(xs, n, x, guess)
+    t = (x - xs[i]) / (xs[i + 1] - xs[i])
+    return ys[i] + t * (ys[i + 1] - ys[i])
 
-    ``segment`` remembers each corner's segment from the previous substep; ``nxs``, ``nys`` are
-    the segments' unit normals. When a corner is further, horizontally, from both ends of its
-    segment than it is deep, no other segment can be nearer, so it goes straight out along the
-    normal (the usual case). Otherwise the two neighbours on each side are searched too, so
-    that steep walls and step risers push sideways, not up.
+
+@njit(inline="always")
+def _bounce_off(p, vel, nx, ny, mu):
+    """Remove point p's velocity into the surface of normal (nx, ny); Coulomb friction."""
+    vn = vel[p, 0] * nx + vel[p, 1] * ny
+    if vn < 0.0:
+        vel[p, 0] -= vn * nx
+        vel[p, 1] -= vn * ny
+        tx = ny
+        ty = -nx
+        vt = vel[p, 0] * tx + vel[p, 1] * ty
+        cut = min(abs(vt), -mu * vn)
+        if vt < 0.0:
+            cut = -cut
+        vel[p, 0] -= cut * tx
+        vel[p, 1] -= cut * ty
+
+
+@njit(inline="always")
+def ground_contact(robot, ground, scratch, pos, vel, first, hi_x, params):
+    """Keep the robot's corners, rounded to discs of radius ``contact_radius``, out of the
+    ground; no bounce, Coulomb friction.
+
+    ``scratch.segment`` remembers each corner's segment from the previous substep; ``first``
+    is the segment under the robot's leftmost point and ``hi_x`` its right end [m]. When a
+    corner is further, horizontally, from both ends of its segment than the disc's radius and
+    its depth, no other segment can be nearer, so it goes straight out along the segment's
+    normal (the usual case). Otherwise the two neighbours on
+    each side are searched for the nearest ground point, so that a disc rolls over a crest and
+    steep walls and step risers push sideways, not up.
     """
-    mu = params[P_FRICTION]
-    clear = highest_ground(xs, ys, n, first, hi_x) + CONTACT_TOLERANCE
-    for p in range(n_points):
+    xs = ground.xs
+    ys = ground.ys
+    nxs = ground.nx
+    nys = ground.ny
+    n = ground.n
+    contact = scratch.contact
+    segment = scratch.segment
+    mu = params.friction
+    radius = params.radius
+    clear = highest_ground(xs, ys, n, first, hi_x) + radius + CONTACT_TOLERANCE
+    for p in range(robot.n_points):
         x = pos[p, 0]
         y = pos[p, 1]
         if y >= clear:
@@ -206,100 +258,207 @@ def ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n, fi
         segment[p] = i
         t = (x - xs[i]) / (xs[i + 1] - xs[i])
         gap = y - (ys[i] + t * (ys[i + 1] - ys[i]))
-        contact[p] = gap < CONTACT_TOLERANCE
-        if gap >= 0.0:
-            continue
         nx = nxs[i]
         ny = nys[i]
-        if min(x - xs[i], xs[i + 1] - x) >= -gap:
-            depth = (x - xs[i]) * nx + (y - ys[i]) * ny
-            pos[p, 0] = x - depth * nx
-            pos[p, 1] = y - depth * ny
+        if min(x - xs[i], xs[i + 1] - x) >= max(radius, -gap):
+            depth = radius - ((x - xs[i]) * nx + (y - ys[i]) * ny)
         else:
             best = 1e300
+            cx = cy = 0.0
             for j in range(max(0, i - 2), min(n - 1, i + 3)):
                 sx = xs[j + 1] - xs[j]
                 sy = ys[j + 1] - ys[j]
                 u = ((x - xs[j]) * sx + (y - ys[j]) * sy) / (sx * sx + sy * sy)
                 u = min(1.0, max(0.0, u))
-                cx = xs[j] + u * sx
-                cy = ys[j] + u * sy
-                d2 = (x - cx) * (x - cx) + (y - cy) * (y - cy)
+                qx = xs[j] + u * sx
+                qy = ys[j] + u * sy
+                d2 = (x - qx) * (x - qx) + (y - qy) * (y - qy)
                 if d2 < best:
                     best = d2
-                    pos[p, 0] = cx
-                    pos[p, 1] = cy
+                    cx = qx
+                    cy = qy
                     nx = nxs[j]
                     ny = nys[j]
-        vn = vel[p, 0] * nx + vel[p, 1] * ny
-        if vn < 0.0:
-            vel[p, 0] -= vn * nx
-            vel[p, 1] -= vn * ny
-            tx = ny
-            ty = -nx
-            vt = vel[p, 0] * tx + vel[p, 1] * ty
-            cut = min(abs(vt), -mu * vn)
-            if vt < 0.0:
-                cut = -cut
-            vel[p, 0] -= cut * tx
-            vel[p, 1] -= cut * ty
+            distance = math.sqrt(best)
+            if distance > 1e-9:
+                # Out of the ground along the line from the nearest ground point (towards the
+                # corner when it is above ground, away from it when below).
+                side = 1.0 if gap >= 0.0 else -1.0
+                nx = side * (x - cx) / distance
+                ny = side * (y - cy) / distance
+                depth = radius - side * distance
+            else:
+                depth = radius
+        contact[p] = depth > -CONTACT_TOLERANCE
+        if depth <= 0.0:
+            continue
+        pos[p, 0] = x + depth * nx
+        pos[p, 1] = y + depth * ny
+        _bounce_off(p, vel, nx, ny, mu)
 
 
 @njit(inline="always")
-def peak_contact(n_boundary, boundary, pos, vel, xs, ys, n, first, hi_x, lo_y, params):
-    """Keep terrain vertices from poking deeper than ``max_peak_depth`` into an outer side.
+def side_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params):
+    """Keep terrain vertices out of the robot's outer sides; Coulomb friction, no bounce.
 
-    Corners alone would let a sharp hilltop pass between two corners 3 m apart.
+    Together with :func:`ground_contact` (corners against terrain segments) this makes the
+    robot's whole outline a solid surface: it rests on a crest with a side, not only with a
+    point, as the original's rigid corner squares do. A vertex may sink ``max_peak_depth``
+    into a side before it is pushed out. A vertex behind several sides belongs to the shallowest
+    one only. The push and the impulses act at the contact point, a fraction
+    ``lam`` along side a -> b, shared by a and b as a rigid side would share them (each end
+    in proportion to how much it moves that point and to its inverse mass), so that they
+    exert no torque about the contact point.
     """
-    limit = params[P_PEAK_DEPTH]
+    boundary = robot.boundary
+    inv_mass = robot.inv_mass
+    contact = scratch.contact
+    xs = ground.xs
+    ys = ground.ys
+    n = ground.n
+    limit = params.peak_depth
+    mu = params.friction
+    radius = params.radius
+    reach = MAX_SIDE_DEPTH + radius
     for i in range(first + 1, n - 1):
         tx = xs[i]
-        if tx > hi_x:
+        if tx > hi_x + radius:
             break
         ty = ys[i]
-        if ty <= lo_y:
-            continue  # below every corner: it cannot be inside the robot
-        for q in range(n_boundary):
+        if ty <= lo_y - radius:
+            continue  # below every corner's disc: it cannot touch the robot
+        side = -1
+        depth = 0.0
+        lam = 0.0
+        for q in range(robot.n_boundary):
             a = boundary[q, 0]
             b = boundary[q, 1]
+            # A vertex that can count for this side lies in its bounding box grown by reach:
+            # two comparisons spare most sides the division and the square root.
+            if (tx < min(pos[a, 0], pos[b, 0]) - reach or tx > max(pos[a, 0], pos[b, 0]) + reach
+                    or ty < min(pos[a, 1], pos[b, 1]) - reach
+                    or ty > max(pos[a, 1], pos[b, 1]) + reach):
+                continue
             ex = pos[b, 0] - pos[a, 0]
             ey = pos[b, 1] - pos[a, 1]
             length2 = ex * ex + ey * ey
-            lam = ((tx - pos[a, 0]) * ex + (ty - pos[a, 1]) * ey) / length2
-            if lam <= 0.0 or lam >= 1.0:
+            at = ((tx - pos[a, 0]) * ex + (ty - pos[a, 1]) * ey) / length2
+            if at <= 0.0 or at >= 1.0:
                 continue
-            inv = 1.0 / math.sqrt(length2)
-            onx = ey * inv
-            ony = -ex * inv
-            depth = -((tx - pos[a, 0]) * onx + (ty - pos[a, 1]) * ony)
-            if depth <= limit or depth >= MAX_SIDE_DEPTH:
+            # How deep the vertex is behind the side's outward normal (ey, -ex) / length.
+            d = radius - ((tx - pos[a, 0]) * ey - (ty - pos[a, 1]) * ex) / math.sqrt(length2)
+            if d <= -CONTACT_TOLERANCE or d >= reach:
                 continue
-            wa = 1.0 - lam
-            wb = lam
-            scale = (depth - limit) / (wa * wa + wb * wb)
-            pos[a, 0] -= onx * scale * wa
-            pos[a, 1] -= ony * scale * wa
-            pos[b, 0] -= onx * scale * wb
-            pos[b, 1] -= ony * scale * wb
-            for p in (a, b):
-                vn = vel[p, 0] * onx + vel[p, 1] * ony
-                if vn > 0.0:
-                    vel[p, 0] -= vn * onx
-                    vel[p, 1] -= vn * ony
+            if side < 0 or d < depth:
+                side = q
+                depth = d
+                lam = at
+        if side < 0 or depth <= limit - CONTACT_TOLERANCE:
+            continue
+        a = boundary[side, 0]
+        b = boundary[side, 1]
+        contact[a] = True
+        contact[b] = True
+        if depth <= limit:
+            continue
+        ex = pos[b, 0] - pos[a, 0]
+        ey = pos[b, 1] - pos[a, 1]
+        inv = 1.0 / math.sqrt(ex * ex + ey * ey)
+        tx_ = ex * inv
+        ty_ = ey * inv
+        nx = ty_  # outward normal
+        ny = -tx_
+        wa = (1.0 - lam) * inv_mass[a]
+        wb = lam * inv_mass[b]
+        share = 1.0 / ((1.0 - lam) * wa + lam * wb)  # effective mass at the contact point
+        push = (depth - limit) * share
+        pos[a, 0] -= nx * push * wa
+        pos[a, 1] -= ny * push * wa
+        pos[b, 0] -= nx * push * wb
+        pos[b, 1] -= ny * push * wb
+        # The side's velocity at the contact point, along the normal into the vertex (> 0
+        # closes) and along the side.
+        vx = (1.0 - lam) * vel[a, 0] + lam * vel[b, 0]
+        vy = (1.0 - lam) * vel[a, 1] + lam * vel[b, 1]
+        vn = vx * nx + vy * ny
+        if vn <= 0.0:
+            continue
+        vt = vx * tx_ + vy * ty_
+        cut = min(abs(vt), mu * vn)
+        if vt < 0.0:
+            cut = -cut
+        jx = (vn * nx + cut * tx_) * share
+        jy = (vn * ny + cut * ty_) * share
+        vel[a, 0] -= jx * wa
+        vel[a, 1] -= jy * wa
+        vel[b, 0] -= jx * wb
+        vel[b, 1] -= jy * wb
 
 
 @njit(inline="always")
-def substep(n_points, n_springs, n_boundary, ends, strength, rest, min_length, mass, inv_mass,
-            boundary, pos, vel, force, work, contact, segment, xs, ys, nxs, nys, n_terrain,
-            params):
-    """Advance one robot by one physics substep. ``work`` is a tuple of 6 (S,) scratch arrays;
-    ``segment`` (P + 1,) remembers the terrain segment under each corner and, last, under the
-    robot's leftmost corner."""
-    integrate(n_points, n_springs, ends, strength, rest, min_length, mass, inv_mass, pos, vel,
-              force, work[0], work[1], work[2], work[3], work[4], work[5], params)
-    lo_x, hi_x, lo_y = extent(n_points, pos)
-    first = segment_near(xs, n_terrain, lo_x, segment[n_points])
-    segment[n_points] = first
-    peak_contact(n_boundary, boundary, pos, vel, xs, ys, n_terrain, first, hi_x, lo_y, params)
-    ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n_terrain, first,
-                   hi_x, params)
+def voxel_corners(corners, v):
+    """Point indices of voxel ``v``'s corners: SW, SE, NE, NW (counter-clockwise)."""
+    return corners[v, 0], corners[v, 1], corners[v, 2], corners[v, 3]
+
+
+@njit(inline="always")
+def keep_orientation(robot, pos, vel):
+    """No voxel turns inside out: each voxel's signed area stays at least ``min_area``.
+
+    Length limits cannot do it (a mirrored voxel has the same side and diagonal lengths).
+    Where a voxel is smaller, its corners move along the area's gradient, weighted by inverse
+    mass, to restore ``robot.min_area``, and the corners' shrinking rate along it is removed.
+    """
+    corners = robot.corners
+    min_area = robot.min_area
+    inv_mass = robot.inv_mass
+    for v in range(robot.n_voxels):
+        sw, se, ne, nw = voxel_corners(corners, v)
+        # Twice the signed area: the cross product of the diagonals.
+        d1x = pos[ne, 0] - pos[sw, 0]
+        d1y = pos[ne, 1] - pos[sw, 1]
+        d2x = pos[nw, 0] - pos[se, 0]
+        d2y = pos[nw, 1] - pos[se, 1]
+        area = 0.5 * (d1x * d2y - d1y * d2x)
+        if area >= min_area:
+            continue
+        # dA/dp for each corner: half the perpendicular of the other diagonal.
+        g_sw_x, g_sw_y = -0.5 * d2y, 0.5 * d2x
+        g_ne_x, g_ne_y = 0.5 * d2y, -0.5 * d2x
+        g_se_x, g_se_y = 0.5 * d1y, -0.5 * d1x
+        g_nw_x, g_nw_y = -0.5 * d1y, 0.5 * d1x
+        w_sw = inv_mass[sw]
+        w_se = inv_mass[se]
+        w_ne = inv_mass[ne]
+        w_nw = inv_mass[nw]
+        norm = (w_sw * (g_sw_x * g_sw_x + g_sw_y * g_sw_y)
+                + w_ne * (g_ne_x * g_ne_x + g_ne_y * g_ne_y)
+                + w_se * (g_se_x * g_se_x + g_se_y * g_se_y)
+                + w_nw * (g_nw_x * g_nw_x + g_nw_y * g_nw_y))
+        if norm < 1e-12:
+            continue
+        step = (min_area - area) / norm
+        rate = (g_sw_x * vel[sw, 0] + g_sw_y * vel[sw, 1] + g_ne_x * vel[ne, 0]
+                + g_ne_y * vel[ne, 1] + g_se_x * vel[se, 0] + g_se_y * vel[se, 1]
+                + g_nw_x * vel[nw, 0] + g_nw_y * vel[nw, 1])
+        stop = max(0.0, -rate) / norm
+        for p, gx, gy, w in ((sw, g_sw_x, g_sw_y, w_sw), (se, g_se_x, g_se_y, w_se),
+                             (ne, g_ne_x, g_ne_y, w_ne), (nw, g_nw_x, g_nw_y, w_nw)):
+            pos[p, 0] += step * w * gx
+            pos[p, 1] += step * w * gy
+            vel[p, 0] += stop * w * gx
+            vel[p, 1] += stop * w * gy
+
+
+@njit(inline="always")
+def substep(robot, ground, scratch, pos, vel, params):
+    """Advance one robot by one physics substep: springs, gravity and drag; the voxels'
+    length and orientation limits; contact of the outline with the terrain."""
+    integrate(robot, scratch, pos, vel, params)
+    keep_orientation(robot, pos, vel)
+    lo_x, hi_x, lo_y = extent(robot.n_points, pos)
+    segment = scratch.segment
+    first = segment_near(ground.xs, ground.n, lo_x - params.radius, segment[robot.n_points])
+    segment[robot.n_points] = first
+    ground_contact(robot, ground, scratch, pos, vel, first, hi_x + params.radius, params)
+    side_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params)

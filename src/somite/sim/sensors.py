@@ -2,11 +2,14 @@
 
 Readings are normalised to about [0, 1]: area ratio and velocity through the soft
 normalisation 0.5 + 0.5 tanh(2(2v - 1)) of their domain ([0.5, 1.5] and [-v_max, v_max]), touch
-as 0/1 (or its moving average), lidar as distance / range (1 when the ray hits nothing). Gaussian
-noise of standard deviation ``noise_sigma`` is added last, unclipped.
+as 0/1 (or its moving average), lidar as distance / range (1 when the ray hits nothing); touch
+and lidar are not soft-normalised, as in the authors' code. Gaussian noise of standard deviation
+``noise_sigma`` is added last, unclipped.
 
-The noise comes from a counter-based generator keyed by (robot seed, step, reading): it needs no
-state, so a robot's noise does not depend on its thread or on the other robots of its batch.
+With ``noise_stream = "independent"`` the noise comes from a counter-based generator keyed by
+(robot seed, step, reading): it needs no state, so a robot's noise does not depend on its thread
+or on the other robots of its batch. With ``"java-random-0"`` it is read from one precomputed
+table of ``java.util.Random(0)`` Gaussians (:func:`noise_table`), the same for every robot.
 """
 
 from __future__ import annotations
@@ -17,21 +20,17 @@ import numpy as np
 
 from .._jit import njit
 from .._math import tanh
-from .config import (
-    P_LIDAR0,
-    P_LIDAR_FRAME,
-    P_LIDAR_RANGE,
-    P_NOISE,
-    P_TOUCH_WINDOW,
-    P_VELOCITY_FRAME,
-    P_VELOCITY_MAX,
-    P_VELOCITY_WINDOW,
-)
-from .physics import segment_near
+from .config import SimConfig
+from .physics import segment_near, voxel_corners
 from .system import R_AREA, R_LIDAR0, R_TOUCH, R_VX, R_VY
+from .terrain import JavaRandom
 
 AREA_LOW, AREA_HIGH = 0.5, 1.5
 VOXEL_AREA = 9.0
+NO_ANGLE, VECTOR_MEAN, ANGLE_MEAN = 0, 1, 2
+"""What :func:`voxel_state` computes as the voxel angle (see :func:`angle_mode`)."""
+READING_WIDTH = 5
+"""Values of the widest sensor (the lidar): the authors' stream spends that many per step."""
 
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
@@ -67,6 +66,29 @@ def gaussian_pair(seed, step, pair):
             return u * factor, v * factor
 
 
+def noise_table(config: SimConfig) -> np.ndarray:
+    """The Gaussians the kernel reads under ``noise_stream = "java-random-0"``, else none.
+
+    Each of the authors' sensors owns a ``java.util.Random(0)``, restarted each episode, and
+    draws one Gaussian per value per step: a 1-D sensor gets #k at step k (from 1), the 2-D
+    velocity #2k-1 and #2k, the lidar #5k-4..#5k (original-system.md section 2.1). Entry
+    ``width * (k - 1) + j`` of this table is Gaussian #``width * (k - 1) + j + 1``.
+    """
+    if config.noise_stream != "java-random-0":
+        return np.zeros(0)
+    rng = JavaRandom(0)
+    return np.array([rng.next_gaussian() for _ in range(READING_WIDTH * config.n_steps)])
+
+
+@njit
+def angle_mode(params) -> int:
+    """The voxel angle :func:`voxel_state` must compute: none unless a sensor reads in the
+    voxel frame, else the configured ``voxel_angle``."""
+    if params.lidar_frame != 1.0 and params.velocity_frame != 1.0:
+        return NO_ANGLE
+    return ANGLE_MEAN if params.voxel_angle == 1.0 else VECTOR_MEAN
+
+
 @njit
 def soft_normalise(x, low, high) -> float:
     v = (x - low) / (high - low)
@@ -74,10 +96,12 @@ def soft_normalise(x, low, high) -> float:
 
 
 @njit
-def voxel_state(n_voxels, corners, pos, vel, with_angle, out):
+def voxel_state(n_voxels, corners, pos, vel, angle, out):
     """Per voxel: centre x, y, velocity x, y, area ratio, angle -> ``out`` (V, 6).
 
-    The angle (0 unless ``with_angle``) is only needed by voxel-frame sensors.
+    The angle, only needed by voxel-frame sensors, is 0 with ``angle = NO_ANGLE``; with
+    ``VECTOR_MEAN`` the direction of the bottom side plus the top side (west to east); with
+    ``ANGLE_MEAN`` the mean of the two sides' directions, as the authors' code computes it.
     """
     for v in range(n_voxels):
         cx = 0.0
@@ -94,15 +118,18 @@ def voxel_state(n_voxels, corners, pos, vel, with_angle, out):
             vy += vel[p, 1]
             area += pos[p, 0] * pos[q, 1] - pos[q, 0] * pos[p, 1]
         out[v, 5] = 0.0
-        if with_angle:
-            sw = corners[v, 0]
-            se = corners[v, 1]
-            ne = corners[v, 2]
-            nw = corners[v, 3]
-            # Mean direction of the bottom and top sides: the voxel's orientation.
-            ax = pos[se, 0] - pos[sw, 0] + pos[ne, 0] - pos[nw, 0]
-            ay = pos[se, 1] - pos[sw, 1] + pos[ne, 1] - pos[nw, 1]
-            out[v, 5] = math.atan2(ay, ax)
+        if angle != NO_ANGLE:
+            sw, se, ne, nw = voxel_corners(corners, v)
+            bx = pos[se, 0] - pos[sw, 0]
+            by = pos[se, 1] - pos[sw, 1]
+            tx = pos[ne, 0] - pos[nw, 0]
+            ty = pos[ne, 1] - pos[nw, 1]
+            if angle == VECTOR_MEAN:
+                out[v, 5] = math.atan2(by + ty, bx + tx)
+            else:
+                # A plain mean of two angles: wrong by pi when they straddle +-pi (kept on
+                # purpose, it is the authors' sensor frame).
+                out[v, 5] = 0.5 * (math.atan2(ty, tx) + math.atan2(by, bx))
         out[v, 0] = 0.25 * cx
         out[v, 1] = 0.25 * cy
         out[v, 2] = 0.25 * vx
@@ -139,9 +166,9 @@ def raycast(x0, y0, dx, dy, reach, xs, ys, n, guess) -> float:
 @njit
 def update_histories(step, n_voxels, corners, contact, voxels, touch_hist, vel_hist, params):
     """Store this step's touch and velocity (in the configured frame) in the ring buffers."""
-    wt = int(params[P_TOUCH_WINDOW])
-    wv = int(params[P_VELOCITY_WINDOW])
-    rotate = params[P_VELOCITY_FRAME] == 1.0
+    wt = int(params.touch_window)
+    wv = int(params.velocity_window)
+    rotate = params.velocity_frame == 1.0
     for v in range(n_voxels):
         touching = 0.0
         for k in range(4):
@@ -169,14 +196,15 @@ def _window_mean(hist, v, step, window, column) -> float:
 
 @njit
 def sense(step, seed, n_readings, codes, reading_voxel, voxels, touch_hist, vel_hist, rays,
-          xs, ys, n_terrain, guess, params, readings):
-    """Fill ``readings`` (R,) for control step ``step`` (histories already updated);
-    ``guess`` is a terrain segment near the robot."""
-    wt = int(params[P_TOUCH_WINDOW])
-    wv = int(params[P_VELOCITY_WINDOW])
-    vmax = params[P_VELOCITY_MAX]
-    reach = params[P_LIDAR_RANGE]
-    sigma = params[P_NOISE]
+          xs, ys, n_terrain, guess, params, noise, readings):
+    """Fill ``readings`` (R,) for control step ``step`` (from 0; histories already updated);
+    ``guess`` is a terrain segment near the robot; ``noise`` is :func:`noise_table`'s (empty:
+    independent noise from ``seed``)."""
+    wt = int(params.touch_window)
+    wv = int(params.velocity_window)
+    vmax = params.velocity_max
+    reach = params.lidar_range
+    sigma = params.noise
     for r in range(n_readings):
         v = reading_voxel[r]
         code = codes[r]
@@ -195,14 +223,24 @@ def sense(step, seed, n_readings, codes, reading_voxel, voxels, touch_hist, vel_
             ray = code - R_LIDAR0
             dx = rays[ray, 0]
             dy = rays[ray, 1]
-            if params[P_LIDAR_FRAME] == 1.0:
+            if params.lidar_frame == 1.0:
                 c = math.cos(voxels[v, 5])
                 s = math.sin(voxels[v, 5])
                 dx, dy = dx * c - dy * s, dx * s + dy * c
             hit = raycast(voxels[v, 0], voxels[v, 1], dx, dy, reach, xs, ys, n_terrain, guess)
             value = hit / reach
         readings[r] = value
-    if sigma > 0.0:
+    if sigma > 0.0 and noise.shape[0] > 0:
+        for r in range(n_readings):
+            code = codes[r]
+            if code == R_VX or code == R_VY:
+                index = 2 * step + code - R_VX
+            elif code >= R_LIDAR0:
+                index = READING_WIDTH * step + code - R_LIDAR0
+            else:
+                index = step
+            readings[r] += sigma * noise[index]
+    elif sigma > 0.0:
         for pair in range((n_readings + 1) // 2):
             z0, z1 = gaussian_pair(seed, step, pair)
             readings[2 * pair] += sigma * z0
@@ -215,6 +253,6 @@ def lidar_rays(params):
     """Unit direction (world frame, or voxel frame before rotation) of the 5 lidar rays."""
     rays = np.empty((5, 2))
     for k in range(5):
-        rays[k, 0] = math.cos(params[P_LIDAR0 + k])
-        rays[k, 1] = math.sin(params[P_LIDAR0 + k])
+        rays[k, 0] = math.cos(params.lidar_angles[k])
+        rays[k, 1] = math.sin(params.lidar_angles[k])
     return rays

@@ -42,6 +42,7 @@ class System(NamedTuple):
     spring_ends: np.ndarray  # (B, S, 2) int32 point indices
     spring_owners: np.ndarray  # (B, S, 2) int32 voxel indices, -1 when only one owner
     spring_rest: np.ndarray  # (B, S) [m] rest length at zero actuation
+    spring_diagonal: np.ndarray  # (B, S) bool: a voxel's diagonal (else a side)
     n_voxels: np.ndarray  # (B,) int32
     voxel_corners: np.ndarray  # (B, V, 4) int32 points SW, SE, NE, NW (counter-clockwise)
     voxel_x: np.ndarray  # (B, V) grid column of each voxel
@@ -66,6 +67,7 @@ class Geometry(NamedTuple):
     springs: np.ndarray  # (S, 2)
     owners: np.ndarray  # (S, 2)
     rest: np.ndarray  # (S,)
+    diagonal: np.ndarray  # (S,) bool
     corners: np.ndarray  # (V, 4)
     boundary: np.ndarray  # (Q, 2)
 
@@ -108,6 +110,7 @@ def geometry(body: Body) -> Geometry:
         springs=np.asarray(springs, dtype=np.int32),
         owners=np.asarray(owners, dtype=np.int32),
         rest=np.asarray(rest, dtype=np.float64),
+        diagonal=np.arange(len(springs)) < 2 * len(voxels),
         corners=corners,
         boundary=np.asarray(boundary, dtype=np.int32).reshape(-1, 2),
     )
@@ -174,6 +177,7 @@ def compile_system(
         spring_ends=pad([g.springs for g in geoms], (2,), np.int32),
         spring_owners=pad([g.owners for g in geoms], (2,), np.int32, -1),
         spring_rest=pad([g.rest for g in geoms], (), np.float64, 1.0),
+        spring_diagonal=pad([g.diagonal for g in geoms], (), np.bool_),
         n_voxels=np.array([len(g.corners) for g in geoms], dtype=np.int32),
         voxel_corners=pad([g.corners for g in geoms], (4,), np.int32),
         voxel_x=pad([np.array([x for x, _ in b.shape.voxels]) for b in bodies], (), np.float64),

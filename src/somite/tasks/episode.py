@@ -18,23 +18,28 @@ from numba import prange
 from .._jit import njit
 from ..brain.kernels import graph_step
 from ..brain.openloop import sine_actuation, table_actuation
-from ..sim.config import (
-    CONTROL_HZ,
-    P_HIDDEN_SIGMOID,
-    P_LIDAR_FRAME,
-    P_MIN_LENGTH,
-    P_SUBSTEPS,
-    P_TOUCH_WINDOW,
-    P_VELOCITY_FRAME,
-    P_VELOCITY_WINDOW,
+from ..sim.config import CONTROL_HZ
+from ..sim.physics import (
+    enforce_min_lengths,
+    ground_height,
+    segment_near,
+    set_rest_lengths,
+    substep,
 )
-from ..sim.physics import enforce_min_lengths, set_rest_lengths, substep
-from ..sim.sensors import lidar_rays, sense, update_histories, voxel_state
+from ..sim.robot import ground_view, new_scratch, robot_view
+from ..sim.sensors import angle_mode, lidar_rays, sense, update_histories, voxel_state
 
 ZERO, SINE, TABLE, GRAPH = 0, 1, 2, 3
 CONTROLLER_KINDS = {"zero": ZERO, "sine": SINE, "table": TABLE, "graph": GRAPH}
 
 STATUS_OK, STATUS_NONFINITE = 0, 1
+
+# Diagnostics of an episode, measured on every control step after the first SETTLE_STEPS (the
+# robot is dropped at the start), as in the reference measurements of shared/reference.
+D_MAX_TILT, D_FLIPPED, D_MAX_GAP, D_MAX_COM_HEIGHT, D_MAX_COM_SPEED = range(5)
+N_DIAGNOSTICS = 5
+SETTLE_STEPS = 120
+"""2 s: the fall from the starting height is over."""
 
 
 class Controllers(NamedTuple):
@@ -61,6 +66,7 @@ class Trace(NamedTuple):
     max_speed: np.ndarray  # (B,) largest corner speed seen [m/s]
     min_area: np.ndarray  # (B,) smallest signed voxel area ratio seen (< 0: inverted)
     status: np.ndarray  # (B,) int32 STATUS_*
+    diagnostics: np.ndarray  # (B, N_DIAGNOSTICS) D_*, measured after SETTLE_STEPS
     pos: np.ndarray  # (B or 0, n_steps + 1, P, 2) corner positions [m]
     actuation: np.ndarray  # (B or 0, n_steps + 1, V)
     readings: np.ndarray  # (B or 0, n_steps + 1, R) normalised, noisy
@@ -77,6 +83,7 @@ def new_trace(n_robots: int, n_steps: int, system, record: bool) -> Trace:
         max_speed=np.zeros(n_robots),
         min_area=np.full(n_robots, np.inf),
         status=np.zeros(n_robots, dtype=np.int32),
+        diagnostics=np.zeros((n_robots, N_DIAGNOSTICS)),
         pos=np.zeros((rows, n_steps + 1, n_points, 2)),
         actuation=np.zeros((rows, n_steps + 1, n_voxels)),
         readings=np.zeros((rows, n_steps + 1, n_readings)),
@@ -94,6 +101,56 @@ def _centre_of_mass(n_points, mass, pos):
         x += mass[p] * pos[p, 0]
         y += mass[p] * pos[p, 1]
     return x / total, y / total
+
+
+@njit
+def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
+    """|angle| [deg] of the line from the leftmost column's centre to the rightmost's."""
+    if x_lo == x_hi:
+        return 0.0
+    lx = ly = rx = ry = 0.0
+    n_left = n_right = 0
+    for v in range(n_voxels):
+        if voxel_x[v] == x_lo:
+            lx += voxels[v, 0]
+            ly += voxels[v, 1]
+            n_left += 1
+        elif voxel_x[v] == x_hi:
+            rx += voxels[v, 0]
+            ry += voxels[v, 1]
+            n_right += 1
+    dx = rx / n_right - lx / n_left
+    dy = ry / n_right - ly / n_left
+    return abs(math.degrees(math.atan2(dy, dx)))
+
+
+@njit
+def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, segment, params,
+             out):
+    """Update the episode's diagnostics ``out`` (D_*) with control step ``k``; ``segment``
+    (P + 1,) holds a terrain segment near each corner (updated) and near the robot."""
+    if k <= SETTLE_STEPS:
+        return
+    gap = np.inf
+    radius = params.radius
+    for p in range(n_points):
+        # The segment under a corner is where the next search starts: a short walk.
+        i = segment_near(xs, n_terrain, pos[p, 0], segment[p])
+        segment[p] = i
+        gap = min(gap, pos[p, 1] - radius - ground_height(xs, ys, n_terrain, pos[p, 0], i))
+    total = vx = vy = 0.0
+    for p in range(n_points):
+        total += mass[p]
+        vx += mass[p] * vel[p, 0]
+        vy += mass[p] * vel[p, 1]
+    speed = math.sqrt(vx * vx + vy * vy) / total
+    out[D_MAX_TILT] = max(out[D_MAX_TILT], tilt)
+    if k > params.transient_steps and tilt > 90.0:
+        out[D_FLIPPED] += 1.0
+    out[D_MAX_GAP] = max(out[D_MAX_GAP], gap)
+    height = cy - ground_height(xs, ys, n_terrain, cx, segment[n_points])
+    out[D_MAX_COM_HEIGHT] = max(out[D_MAX_COM_HEIGHT], height)
+    out[D_MAX_COM_SPEED] = max(out[D_MAX_COM_SPEED], speed)
 
 
 @njit
@@ -121,72 +178,56 @@ def _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation,
         old, new = (h_prev, h_next) if k % 2 == 1 else (h_next, h_prev)
         graph_step(ctrl.n_nodes[b], ctrl.node_kind[b], ctrl.node_ref[b], ctrl.n_edges[b],
                    ctrl.edge_src[b], ctrl.edge_dst[b], ctrl.edge_weight[b], ctrl.edge_bias[b],
-                   old, new, readings, actuation, params[P_HIDDEN_SIGMOID] == 1.0)
+                   old, new, readings, actuation, params.hidden_sigmoid)
 
 
 @njit
-def run_robot(b, system, ctrl, params, seed, n_steps, trace):
-    """Simulate robot ``b`` of the batch for ``n_steps`` control steps into ``trace``."""
-    n_points = system.n_points[b]
-    n_springs = system.n_springs[b]
-    n_voxels = system.n_voxels[b]
-    n_boundary = system.n_boundary[b]
+def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
+    """Simulate robot ``b`` of the batch for ``n_steps`` control steps into ``trace``
+    (``noise``: see :func:`~somite.sim.sensors.noise_table`)."""
+    robot = robot_view(system, b, params)
+    ground = ground_view(system, b)
+    scratch = new_scratch(robot)
+    n_points = robot.n_points
+    n_voxels = robot.n_voxels
     n_readings = system.n_readings[b]
-    t = system.terrain_of[b]
-    xs = system.terrain_x[t]
-    ys = system.terrain_y[t]
-    n_terrain = system.terrain_n[t]
-    nxs = system.terrain_nx[t]
-    nys = system.terrain_ny[t]
-    mass = system.mass[b]
-    rest0 = system.spring_rest[b]
-    corners = system.voxel_corners[b]
-    ends = system.spring_ends[b]
-    boundary = system.boundary[b]
+    mass = robot.mass
+    voxel_x = system.voxel_x[b]
     recording = trace.pos.shape[0] > 0
 
     pos = system.initial_pos[b, :n_points].copy()
     vel = np.zeros((n_points, 2))
-    force = np.zeros((n_points, 2))
-    work = (np.zeros(n_springs), np.zeros(n_springs), np.zeros(n_springs),
-            np.zeros(n_springs), np.zeros(n_springs), np.zeros(n_springs))
-    contact = np.zeros(n_points, dtype=np.bool_)
-    segment = np.zeros(n_points + 1, dtype=np.int64)
-    rest = rest0[:n_springs].copy()
-    inv_mass = 1.0 / mass[:n_points]
-    min_length = rest0[:n_springs] * params[P_MIN_LENGTH]
-    strength = np.ones(n_springs)
-    for s in range(n_springs):
-        if system.spring_owners[b, s, 1] >= 0:
-            strength[s] = 2.0
     voxels = np.zeros((n_voxels, 6))
-    touch_hist = np.zeros((n_voxels, int(params[P_TOUCH_WINDOW])))
-    vel_hist = np.zeros((n_voxels, int(params[P_VELOCITY_WINDOW]), 2))
+    touch_hist = np.zeros((n_voxels, int(params.touch_window)))
+    vel_hist = np.zeros((n_voxels, int(params.velocity_window), 2))
     readings = np.zeros(n_readings)
     actuation = np.zeros(n_voxels)
-    factor = np.ones(n_voxels)
     n_nodes = ctrl.n_nodes[b]
     h_prev = np.zeros(n_nodes)
     h_next = np.zeros(n_nodes)
-    substeps = int(params[P_SUBSTEPS])
+    substeps = int(params.substeps)
     rays = lidar_rays(params)
-    with_angle = params[P_LIDAR_FRAME] == 1.0 or params[P_VELOCITY_FRAME] == 1.0
+    angle = angle_mode(params)
 
     cx, cy = _centre_of_mass(n_points, mass, pos)
     trace.com[b, 0, 0] = cx
     trace.com[b, 0, 1] = cy
     if recording:
-        _record(b, 0, n_points, n_voxels, n_readings, pos, contact, actuation, readings, trace)
+        _record(b, 0, n_points, n_voxels, n_readings, pos, scratch.contact, actuation, readings,
+                trace)
     fastest = 0.0
     smallest = np.inf
+    x_lo = x_hi = voxel_x[0]
+    for v in range(n_voxels):
+        x_lo = min(x_lo, voxel_x[v])
+        x_hi = max(x_hi, voxel_x[v])
+    diagnostics = trace.diagnostics[b]
+    diagnostics[D_MAX_GAP] = -np.inf
     for k in range(1, n_steps + 1):
-        set_rest_lengths(n_voxels, n_springs, system.spring_owners[b], rest0, actuation, params,
-                         factor, rest)
+        set_rest_lengths(robot, scratch, actuation, params)
         for _ in range(substeps):
-            substep(n_points, n_springs, n_boundary, ends, strength, rest, min_length, mass,
-                    inv_mass, boundary, pos, vel, force, work, contact, segment, xs, ys, nxs,
-                    nys, n_terrain, params)
-        enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel)
+            substep(robot, ground, scratch, pos, vel, params)
+        enforce_min_lengths(robot, pos, vel)
         cx, cy = _centre_of_mass(n_points, mass, pos)
         for p in range(n_points):
             fastest = max(fastest, vel[p, 0] * vel[p, 0] + vel[p, 1] * vel[p, 1])
@@ -195,23 +236,28 @@ def run_robot(b, system, ctrl, params, seed, n_steps, trace):
             break
         trace.com[b, k, 0] = cx
         trace.com[b, k, 1] = cy
-        voxel_state(n_voxels, corners, pos, vel, with_angle, voxels)
+        voxel_state(n_voxels, robot.corners, pos, vel, angle, voxels)
         for v in range(n_voxels):
             smallest = min(smallest, voxels[v, 4])
-        update_histories(k - 1, n_voxels, corners, contact, voxels, touch_hist, vel_hist, params)
+        near = scratch.segment[n_points]
+        tilt = _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels)
+        _observe(k, n_points, mass, pos, vel, cx, cy, tilt, ground.xs, ground.ys, ground.n,
+                 scratch.segment, params, diagnostics)
+        update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels, touch_hist,
+                         vel_hist, params)
         sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
-              touch_hist, vel_hist, rays, xs, ys, n_terrain, segment[n_points], params,
+              touch_hist, vel_hist, rays, ground.xs, ground.ys, ground.n, near, params, noise,
               readings)
-        _control(b, k, ctrl, n_voxels, system.voxel_x[b], readings, h_prev, h_next, actuation,
-                 params)
+        _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation, params)
         if recording:
-            _record(b, k, n_points, n_voxels, n_readings, pos, contact, actuation, readings, trace)
+            _record(b, k, n_points, n_voxels, n_readings, pos, scratch.contact, actuation,
+                    readings, trace)
     trace.max_speed[b] = math.sqrt(fastest)
     trace.min_area[b] = smallest
 
 
 @njit(parallel=True)
-def run_batch(system, ctrl, params, seeds, n_steps, trace):
+def run_batch(system, ctrl, params, noise, seeds, n_steps, trace):
     """Run every robot of the batch; robots are spread over the available threads."""
     for b in prange(seeds.shape[0]):
-        run_robot(b, system, ctrl, params, seeds[b], n_steps, trace)
+        run_robot(b, system, ctrl, params, noise, seeds[b], n_steps, trace)

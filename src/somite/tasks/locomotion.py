@@ -17,10 +17,15 @@ from ..brain.controllers import GraphArrays, Sine, Table, Zero
 from ..errors import bad
 from ..sim.body import Body
 from ..sim.config import CONTROL_HZ, SimConfig, pack_params
+from ..sim.sensors import noise_table
 from ..sim.system import System, compile_system, pad
 from ..sim.terrain import Terrain
 from .episode import (
+    D_FLIPPED,
+    D_MAX_GAP,
+    D_MAX_TILT,
     GRAPH,
+    SETTLE_STEPS,
     SINE,
     STATUS_OK,
     TABLE,
@@ -43,6 +48,15 @@ class Outcome:
     final_com: tuple[float, float]
     max_speed: float
     finite: bool
+    min_signed_area_ratio: float = math.nan
+    """Smallest signed area of a voxel over its rest area (< 0: a voxel turned inside out)."""
+    max_tilt_deg: float = math.nan
+    """Largest |angle| of the line from the leftmost column's centre to the rightmost's, after
+    the first 2 s (> 90: the robot was on its side or upside down)."""
+    flipped_fraction: float = math.nan
+    """Share of the scored steps (after ``transient``) with that angle over 90 degrees."""
+    max_height: float = math.nan
+    """Highest that the robot's lowest corner got above the ground, after the first 2 s [m]."""
 
     def to_dict(self) -> dict:
         return {
@@ -51,6 +65,10 @@ class Outcome:
             "final_com": list(self.final_com),
             "max_corner_speed": self.max_speed,
             "finite": self.finite,
+            "min_signed_area_ratio": self.min_signed_area_ratio,
+            "max_tilt_deg": self.max_tilt_deg,
+            "flipped_fraction": self.flipped_fraction,
+            "max_height": self.max_height,
         }
 
 
@@ -118,6 +136,8 @@ def outcomes(trace: Trace, config: SimConfig) -> list[Outcome]:
         com = trace.com[b]
         finite = bool(trace.status[b] == STATUS_OK)
         velocity = (com[end, 0] - com[start, 0]) / span if finite else math.nan
+        observed = config.n_steps > SETTLE_STEPS and finite
+        d = trace.diagnostics[b]
         result.append(
             Outcome(
                 velocity=float(velocity),
@@ -125,6 +145,10 @@ def outcomes(trace: Trace, config: SimConfig) -> list[Outcome]:
                 final_com=(float(com[end, 0]), float(com[end, 1])),
                 max_speed=float(trace.max_speed[b]),
                 finite=finite,
+                min_signed_area_ratio=float(trace.min_area[b]),
+                max_tilt_deg=float(d[D_MAX_TILT]) if observed else math.nan,
+                flipped_fraction=float(d[D_FLIPPED]) / (end - start) if observed else math.nan,
+                max_height=float(d[D_MAX_GAP]) if observed else math.nan,
             )
         )
     return result
@@ -143,7 +167,8 @@ def run(
     # Robots take unequal times (graph sizes, contacts): hand them out one at a time.
     previous = numba.set_parallel_chunksize(1)
     try:
-        run_batch(system, controllers, pack_params(config), seeds_arr, config.n_steps, trace)
+        run_batch(system, controllers, pack_params(config), noise_table(config), seeds_arr,
+                  config.n_steps, trace)
     finally:
         numba.set_parallel_chunksize(previous)
     return trace
@@ -159,8 +184,9 @@ def simulate(
 ) -> tuple[list[Outcome], Trace]:
     """Simulate robot b = (bodies[b], terrains[b], controllers[b]) for every b, in one batch.
 
-    ``seeds`` seeds each robot's sensor noise (one int seeds them all alike). With ``record``
-    the trace also holds every step's corner positions, actuation, readings and contacts.
+    ``seeds`` seeds each robot's sensor noise (one int seeds them all alike; unused with
+    ``noise_stream = "java-random-0"``). With ``record`` the trace also holds every step's
+    corner positions, actuation, readings and contacts.
     """
     config = config or SimConfig()
     n = len(bodies)

@@ -14,7 +14,7 @@ from ..brain.compile import compile_genome
 from ..brain.genome import Genome
 from ..sim.config import SimConfig
 from ..sim.terrain import Terrain, hilly
-from .locomotion import simulate
+from .locomotion import Outcome, simulate
 
 VALIDATION_SEED0 = 10000
 
@@ -34,6 +34,18 @@ def evaluate(
 
     NaN marks an episode that went non-finite.
     """
+    outcomes = evaluate_outcomes(genomes, terrains, config, seed)
+    velocities = np.array([o.velocity for row in outcomes for o in row], dtype=np.float64)
+    return velocities.reshape(len(genomes), len(terrains))
+
+
+def evaluate_outcomes(
+    genomes: Sequence[Genome],
+    terrains: Sequence[Terrain],
+    config: SimConfig | None = None,
+    seed: int = 0,
+) -> list[list[Outcome]]:
+    """The :class:`Outcome` of every genome (rows) on every terrain (columns), in one batch."""
     config = config or SimConfig()
     bodies, worlds, controllers = [], [], []
     for genome in genomes:
@@ -43,5 +55,5 @@ def evaluate(
             worlds.append(terrain)
             controllers.append(arrays)
     outcomes, _ = simulate(bodies, worlds, controllers, config, seeds=seed)
-    velocities = np.array([o.velocity for o in outcomes], dtype=np.float64)
-    return velocities.reshape(len(genomes), len(terrains))
+    n = len(terrains)
+    return [outcomes[g * n : (g + 1) * n] for g in range(len(genomes))]

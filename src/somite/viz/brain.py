@@ -20,7 +20,7 @@ import numpy as np
 
 from ..brain.genome import Genome, body_table
 from ..errors import bad
-from ..modules.partition import Partition
+from ..sim.partition import Partition
 from .camera import View
 from .frame import Overlay
 from .output import atomic_output, check_output

@@ -1,7 +1,9 @@
 """Plots of run directories: the paper's Figures 3/10 (curves) and 5/11 (boxplots).
 
 Curves: the best individual's v_x and size |G| over the generations, as the median across the
-runs of each group with a band of +/- one standard deviation. Boxplots: the best v_x at the last
+runs of each group with a band of +/- one standard deviation; where the logs have a
+``validation_velocity`` (the best re-run on the fixed validation terrains), it is drawn dashed
+over the training v_x, which is the luckiest terrain draw. Boxplots: the best v_x at the last
 generation, one point per run, with the two-sided Mann-Whitney p-value of every pair of groups
 on a bar above them. Groups are runs sharing the value of a ``config.json`` key (``shape``,
 ``omega``, ``weights_only``, ... or several, comma-separated). The numbers come from
@@ -109,6 +111,7 @@ def _figure(groups: dict[str, list[RunLog]], kind: str, group_by: str):
         box = figure.add_subplot(grid[:, 1])
     if top is not None:
         plot_curves(top, groups, "best_velocity", "best $v_x$ [m/s]")
+        plot_validation(top, groups)
         plot_curves(bottom, groups, "best_size", "|G| of the best")
         bottom.set_xlabel("generation")
         top.legend(fontsize=7, frameon=False)
@@ -145,6 +148,17 @@ def plot_curves(axes, groups: dict[str, list[RunLog]], column: str, label: str) 
         axes.plot(x, median, color=colour, lw=1.5, label=f"{name} ({_runs(len(runs))})")
     axes.set_ylabel(label)
     axes.grid(alpha=0.3)
+
+
+def plot_validation(axes, groups: dict[str, list[RunLog]]) -> None:
+    """The best's mean v_x on the validation terrains (the logs' ``validation_velocity``),
+    median across each group's runs, dashed with markers, where the logs measured it."""
+    for k, (name, runs) in enumerate(groups.items()):
+        x, median, _ = curve(runs, "validation_velocity")
+        shown = np.isfinite(median)
+        if shown.any():
+            axes.plot(x[shown], median[shown], color=COLOURS[k % len(COLOURS)], lw=1.0,
+                      ls="--", marker="o", ms=3, label=f"{name}, on validation terrains")
 
 
 def plot_boxes(
@@ -195,4 +209,5 @@ def _p_text(p: float) -> str:
     return "p < 0.001" if p < 0.001 else f"p = {p:.3g}"
 
 
-__all__ = ["PLOT_FORMATS", "curve", "plot_boxes", "plot_curves", "plot_runs", "stats_path"]
+__all__ = ["PLOT_FORMATS", "curve", "plot_boxes", "plot_curves", "plot_runs", "plot_validation",
+           "stats_path"]

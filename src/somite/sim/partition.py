@@ -1,20 +1,37 @@
-"""Partitions of a body into modules: every voxel gets a module label.
+"""Partitions of a body into modules: every voxel gets a module label, and the partition file.
 
 A module is a 4-connected set of voxels (decisions.md, "Modules"). The paper's manual partitions
 (paper Figure 6, original-system.md section 6.1) depend on x only: the worm's back half x <= 2 and
 front half x >= 3; the biped's two legs (whole columns x = 0 and x = 3) and its torso x in {1, 2}.
+
+A partition describes a body, so it lives beside :class:`~somite.sim.body.Shape`; the controller
+operators, module cutting and drawing all read it from here. File format (JSON, written by
+``somite discover`` and read by every command that takes a partition)::
+
+    {"format": "somite-partition", "version": 1, "shape": "111111/111111",
+     "grid": "AAABBB/AAABBB", "modules": {"A": [[0, 0], ...], "B": [...]}, ...}
+
+``grid`` (rows of one-character labels from the top, '.' for empty cells) is what is read back;
+``modules`` lists each module's voxels for readers; other keys are the writer's notes.
 """
 
 from __future__ import annotations
 
+import json
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
+from pathlib import Path
 
 import numpy as np
 
+from .._io import write_atomic
 from ..errors import bad
-from ..sim.body import PRESET_SHAPES, Shape, is_connected
+from .body import PRESET_SHAPES, Shape, is_connected
+
+FORMAT = "somite-partition"
+VERSION = 1
 
 
 def _worm_halves(x: int, y: int) -> str:
@@ -37,15 +54,8 @@ PAPER_PRESET = {grid: name for name, (grid, _) in PARTITION_PRESETS.items()}
 
 @dataclass(frozen=True)
 class Partition:
-    """A module label for every voxel of a shape.
-
-    Attributes
-    ----------
-    shape : Shape
-        The partitioned shape.
-    labels : tuple of str
-        ``labels[i]`` is the module of ``shape.voxels[i]``.
-    """
+    """A module label for every voxel of a shape: ``labels[i]`` is the module of
+    ``shape.voxels[i]``; labels are non-empty strings, and each module is 4-connected."""
 
     shape: Shape
     labels: tuple[str, ...]
@@ -105,10 +115,70 @@ class Partition:
 
     @classmethod
     def parse(cls, spec: str, shape: Shape | str) -> Partition:
-        """A preset name or a grid of labels (see :meth:`preset` and :meth:`from_grid`)."""
+        """A preset name, a grid of labels, or the path of a partition file (``*.json``).
+
+        See :meth:`preset`, :meth:`from_grid` and :meth:`load`; every command that takes a
+        partition reads it through here.
+        """
+        spec = str(spec).strip()
+        if spec.endswith(".json"):
+            return cls.load(spec, shape)
         if spec == "paper" or spec in PARTITION_PRESETS:
             return cls.preset(spec, shape)
         return cls.from_grid(spec, shape)
+
+    # -- the partition file ---------------------------------------------------------------------
+
+    def to_dict(self, **notes) -> dict:
+        """The file's JSON form (see the module docstring); ``notes`` are added as extra keys."""
+        return {
+            "format": FORMAT,
+            "version": VERSION,
+            "shape": self.shape.grid_string(),
+            "grid": self.grid_string(),
+            "modules": {label: [list(v) for v in self.voxels_of(label)] for label in self.modules},
+            **notes,
+        }
+
+    @classmethod
+    def from_dict(
+        cls, data: dict, shape: Shape | str | None = None, where: str = "partition data"
+    ) -> Partition:
+        """Inverse of :meth:`to_dict` (labels from ``modules``); with ``shape``, the data must
+        be for that shape. ``where`` names the source in errors (a file's path)."""
+        if not isinstance(data, dict) or data.get("format") != FORMAT:
+            raise bad("partition", where, f"not a {FORMAT!r} file")
+        if data.get("version") != VERSION:
+            raise bad(
+                "partition", where,
+                f"version {data.get('version')!r} unsupported; this somite reads {VERSION}",
+            )
+        saved = Shape.parse(data.get("shape", ""))
+        if shape is not None:
+            shape = Shape.parse(shape) if isinstance(shape, str) else shape
+            if shape != saved:
+                raise bad(
+                    "partition", where,
+                    f"is for shape {saved.grid_string()}, not {shape.grid_string()}",
+                )
+        label_of = _labels_of(data.get("modules"), where)
+        if sorted(label_of) != sorted(saved.voxels):
+            raise bad("partition", where, "its modules must cover the shape's voxels exactly")
+        return cls(saved, tuple(label_of[v] for v in saved.voxels))
+
+    def save(self, path: str | os.PathLike, **notes) -> Path:
+        """Write the partition file (atomically); ``notes`` are added as extra keys."""
+        text = json.dumps(self.to_dict(**notes), indent=1, allow_nan=False)
+        return write_atomic(path, text + "\n")
+
+    @classmethod
+    def load(cls, path: str | os.PathLike, shape: Shape | str | None = None) -> Partition:
+        """Read a partition file; with ``shape``, it must be for that shape."""
+        try:
+            data = json.loads(Path(path).read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+            raise bad("partition", str(path), f"cannot read a partition file ({error})") from None
+        return cls.from_dict(data, shape, str(path))
 
     @cached_property
     def modules(self) -> tuple[str, ...]:
@@ -149,3 +219,15 @@ class Partition:
             "".join(char[cell[(x, y)]] if (x, y) in cell else "." for x in range(self.shape.width))
             for y in reversed(range(self.shape.height))
         )
+
+
+def _labels_of(modules, where: str) -> dict[tuple[int, int], str]:
+    """Voxel -> label from a file's ``modules`` ({label: [[x, y], ...]})."""
+    try:
+        pairs = [((int(x), int(y)), label) for label, cells in modules.items() for x, y in cells]
+    except (AttributeError, TypeError, ValueError):
+        raise bad("partition", where, "expected modules as {label: [[x, y], ...]}") from None
+    label_of = dict(pairs)
+    if len(label_of) != len(pairs):
+        raise bad("partition", where, "a voxel is in two modules")
+    return label_of

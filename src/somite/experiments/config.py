@@ -1,0 +1,148 @@
+"""What an evolutionary run needs: its body, seed, length, task and the EA's configuration.
+
+Precedence: the preset's values, then the TOML file, then command-line options. Every key of
+:class:`RunConfig`, of :class:`~somite.evolution.config.GAConfig` and of
+:class:`~somite.evolution.operators.OperatorConfig` can be set in TOML at the top level (the
+form ``config.json`` is written in); unknown keys and wrong types are one-line errors naming
+the key.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+
+from ..errors import bad
+from ..evolution.config import GAConfig, check_types
+from ..evolution.operators import OperatorConfig
+from ..sim.body import Body
+from ..sim.config import PRESETS as SIM_PRESETS
+from ..tasks.distributions import parse_distribution
+from ..tasks.task import Locomotion
+
+RANDOM_TERRAIN = "hilly-1-10-rnd"
+"""The paper's training terrains: a fresh ``hilly-1-10-SEED`` for every evaluation."""
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """Everything that decides an evolutionary run (the paper's values by default).
+
+    Attributes
+    ----------
+    shape, sensors : str
+        The body (``Body.build(shape, sensors)``).
+    preset : str
+        Simulator preset (``paper`` or ``original-code``).
+    seed : int
+        Seeds the one ``SeedSequence`` both of the EA's generators are spawned from.
+    generations : int
+        Generations after the initial population (the log has ``generations + 1`` rows).
+    terrain : str
+        The training distribution (:mod:`somite.tasks.distributions`).
+    duration, transient : float
+        Episode length and start of the measured interval [s].
+    evaluations : int
+        Terrains per evaluation, fitness their mean v_x (1: the paper).
+    validate_every : int
+        Every this many generations (and at the last one) the current best is run on the
+        fixed validation terrains, its mean v_x logged as ``validation_velocity``; 0: never.
+    start : str
+        The genome a re-optimisation started from (empty for a run from scratch).
+    checkpoint_every : int
+        Generations between checkpoints (one is also written at generation 0 and at the end).
+    ga : GAConfig
+        The EA's own configuration.
+    """
+
+    shape: str = "worm"
+    sensors: str = "paper"
+    preset: str = "paper"
+    seed: int = 0
+    generations: int = 3000
+    terrain: str = RANDOM_TERRAIN
+    duration: float = 30.0
+    transient: float = 5.0
+    evaluations: int = 1
+    validate_every: int = 50
+    start: str = ""
+    checkpoint_every: int = 10
+    ga: GAConfig = field(default_factory=GAConfig)
+
+    def __post_init__(self) -> None:
+        check_types(RunConfig, {f.name: getattr(self, f.name) for f in fields(self)})
+        if self.preset not in SIM_PRESETS:
+            raise bad("preset", self.preset, f"use one of {list(SIM_PRESETS)}")
+        for name, low in (("generations", 0), ("evaluations", 1), ("validate_every", 0),
+                          ("checkpoint_every", 1)):
+            if getattr(self, name) < low:
+                raise bad(name, getattr(self, name), f"must be at least {low}")
+        parse_distribution(self.terrain)
+        self.task()  # validates duration and transient
+
+    def body(self) -> Body:
+        return Body.build(self.shape, self.sensors)
+
+    def task(self, body: Body | None = None) -> Locomotion:
+        """The task this run evolves on; with ``body``, genomes of another body are refused."""
+        return Locomotion(self.terrain, self.duration, evaluations=self.evaluations,
+                          preset=self.preset, transient=self.transient, body=body)
+
+    def validation_due(self, generation: int) -> bool:
+        """Whether ``generation``'s best gets a validation velocity in the log."""
+        if self.validate_every == 0:
+            return False
+        return generation % self.validate_every == 0 or generation == self.generations
+
+    def to_dict(self) -> dict:
+        """Flat, as in TOML and ``config.json``."""
+        data = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "ga"}
+        return {**data, **self.ga.to_dict()}
+
+
+RUN_PRESETS: dict[str, dict] = {
+    "paper": {},
+    "original-code": {"preset": "original-code", "reevaluate_parents": True,
+                      "node_placement": "uniform", "seeded_mutants": "population"},
+}
+"""The run half of each preset (decisions.md), plain data; ``preset`` also picks the
+simulator's half (:data:`somite.sim.config.PRESETS`)."""
+
+
+def option_names() -> set[str]:
+    """Every key a TOML file or ``config.json`` may hold."""
+    nested = (RunConfig, GAConfig, OperatorConfig)
+    return {f.name for cls in nested for f in fields(cls)} - {"ga", "operators"}
+
+
+def load_toml(path: str | Path) -> dict:
+    """The options of a TOML file, checked for unknown keys (types are checked on build)."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise bad("config", str(path), "no such file") from None
+    except tomllib.TOMLDecodeError as error:
+        raise bad("config", str(path), f"not valid TOML ({error})") from None
+    known = option_names()
+    for key in data:
+        if key not in known:
+            raise bad("config." + key, data[key], "unknown option")
+    return data
+
+
+def resolve(options: dict) -> RunConfig:
+    """Build the configuration: preset defaults, then ``options`` (TOML and CLI merged, flat)."""
+    name = options.get("preset", "paper")
+    if name not in RUN_PRESETS:
+        raise bad("preset", name, f"use one of {list(RUN_PRESETS)}")
+    merged = {**RUN_PRESETS[name], **options}
+    known = option_names()
+    for key, value in merged.items():
+        if key not in known:
+            raise bad(key, value, "unknown option")
+    own = {f.name for f in fields(RunConfig)} - {"ga"}
+    run = check_types(RunConfig, {k: v for k, v in merged.items() if k in own})
+    ga = GAConfig.from_options({k: v for k, v in merged.items() if k not in own})
+    return RunConfig(**run, ga=ga)

@@ -1,0 +1,164 @@
+"""The locomotion task as an object: training terrains, episode settings and validation.
+
+A :class:`Locomotion` owns everything that decides how fast a genome is: the distribution of
+training terrains, the :class:`~somite.sim.config.SimConfig` of an episode, how many terrains
+one evaluation averages, and the fixed validation terrains. It draws its randomness only from
+the generator it is given, so the same generator state gives the same velocities, and an EA
+can hand it a generator of its own that variation never touches.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..brain.compile import compile_genome
+from ..brain.genome import Genome
+from ..errors import bad
+from ..sim.body import Body
+from ..sim.config import SimConfig
+from ..sim.config import preset as sim_preset
+from ..sim.terrain import Terrain, parse_terrain
+from .distributions import parse_distribution
+from .locomotion import Controller, Outcome
+from .locomotion import simulate as simulate_batch
+from .validation import evaluate as evaluate_on
+from .validation import validation_terrains
+from .velocity import mean_velocity
+
+
+class Locomotion:
+    """Move right as fast as possible: fitness v_x [m/s], the centre of mass's mean x-velocity
+    over [transient, duration] (paper eq. 2).
+
+    Parameters
+    ----------
+    terrain : str
+        A training distribution: ``hilly-H-W-rnd`` (default ``hilly-1-10-rnd``, the paper's),
+        ``steppy-H-W-rnd``, ``uphill-rnd``, ``downhill-rnd``, or a fixed terrain such as
+        ``flat`` (see :mod:`somite.tasks.distributions`).
+    duration : float
+        Episode length [s] (30 in the paper).
+    evaluations : int
+        Terrains drawn per evaluation; a genome's fitness is the mean v_x over them, NaN if
+        any is NaN (1 is the paper).
+    preset : str
+        Simulator preset, ``paper`` or ``original-code``.
+    transient : float
+        Start of the measured interval [s] (5 in the paper).
+    validation : int
+        How many fixed validation terrains :meth:`validate` uses (``hilly-1-10-10000``, ...;
+        never training terrains).
+    body : Body, optional
+        When given, every genome evaluated must drive this body (a one-line error otherwise).
+    sim : SimConfig, optional
+        The full episode settings; replaces ``duration``, ``preset`` and ``transient``.
+    """
+
+    def __init__(
+        self,
+        terrain: str = "hilly-1-10-rnd",
+        duration: float = 30.0,
+        *,
+        evaluations: int = 1,
+        preset: str = "paper",
+        transient: float = 5.0,
+        validation: int = 10,
+        body: Body | None = None,
+        sim: SimConfig | None = None,
+    ) -> None:
+        self.terrains = parse_distribution(terrain)
+        self.sim = sim or sim_preset(preset, duration=float(duration), transient=float(transient))
+        for name, value in (("evaluations", evaluations), ("validation", validation)):
+            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                raise bad(name, value, "must be an integer >= 1")
+        self.evaluations = evaluations
+        self.validation_terrains = validation_terrains(validation)
+        held_out = {t.name for t in self.validation_terrains}
+        if not self.terrains.is_random and self.terrains.name in held_out:
+            raise bad("terrain", terrain, "a validation terrain cannot be a training terrain")
+        self.body = body
+
+    def __repr__(self) -> str:
+        return (f"Locomotion(terrain={self.terrains.name!r}, duration={self.sim.duration}, "
+                f"evaluations={self.evaluations})")
+
+    def _check(self, genomes: Sequence[Genome]) -> list[Genome]:
+        genomes = list(genomes)
+        for genome in genomes:
+            if not isinstance(genome, Genome):
+                raise bad("genome", type(genome).__name__, "expected a somite Genome")
+            if self.body is not None and genome.body != self.body:
+                raise bad("shape", genome.body.shape.grid_string(),
+                          f"the task's body is {self.body.shape.grid_string()}")
+        return genomes
+
+    def evaluate(self, genomes: Sequence[Genome], rng: np.random.Generator) -> np.ndarray:
+        """Fitness of each genome, shape (G,), v_x in m/s (NaN: the episode went non-finite).
+
+        Each genome meets ``evaluations`` terrains drawn from the training distribution, with
+        its own sensor-noise seed per episode, all from ``rng``: first the G*K terrains
+        (genome by genome), then the G*K noise seeds. One batch for all of them.
+        """
+        genomes = self._check(genomes)
+        n = len(genomes) * self.evaluations
+        if n == 0:
+            return np.zeros(0)
+        terrains = self.terrains.sample(rng, n)
+        noise_seeds = rng.integers(0, 2**32, n)
+        arrays = [compile_genome(g) for g in genomes]
+        repeat = self.evaluations
+        outcomes, _ = simulate_batch(
+            [g.body for g in genomes for _ in range(repeat)], terrains,
+            [a for a in arrays for _ in range(repeat)], self.sim, noise_seeds,
+        )
+        velocities = np.array([o.velocity for o in outcomes]).reshape(len(genomes), repeat)
+        return mean_velocity(velocities, axis=1)
+
+    def validate(self, genomes: Genome | Sequence[Genome]) -> np.ndarray:
+        """v_x [m/s] on each fixed validation terrain: shape (T,) for one genome, (G, T) for a
+        list. No randomness: noise seed 0, so the same genome always gets the same numbers."""
+        single = isinstance(genomes, Genome)
+        checked = self._check([genomes] if single else genomes)
+        velocities = evaluate_on(checked, self.validation_terrains, self.sim)
+        return velocities[0] if single else velocities
+
+    def validation_velocity(self, genome: Genome) -> float:
+        """Mean v_x [m/s] of ``genome`` over the validation terrains (NaN if any is NaN)."""
+        return float(mean_velocity(self.validate(genome)))
+
+
+def simulate(
+    robot: Genome | Controller,
+    terrain: str | Terrain = "flat",
+    *,
+    body: Body | None = None,
+    duration: float = 30.0,
+    preset: str = "paper",
+    seed: int = 0,
+    sim: SimConfig | None = None,
+) -> Outcome:
+    """One robot, one episode: its :class:`~somite.tasks.locomotion.Outcome` (v_x in m/s over
+    [5 s, duration], distance in m, final centre of mass in m, ...).
+
+    ``robot`` is a :class:`~somite.brain.genome.Genome` (which carries its body) or a
+    controller (``Zero()``, ``Sine(...)``, ...) with ``body``. ``terrain`` is a name
+    (``flat``, ``hilly-1-10-3``, ...) or a :class:`~somite.sim.terrain.Terrain`; ``seed`` seeds
+    the sensor noise. For batches, see :func:`somite.tasks.locomotion.simulate`.
+    """
+    if isinstance(robot, Genome):
+        if body is not None and body != robot.body:
+            raise bad("body", body.shape.grid_string(), "differs from the genome's own body")
+        body, controller = robot.body, compile_genome(robot)
+    elif body is None:
+        raise bad("body", None, "a controller needs body=; a Genome carries its own")
+    else:
+        controller = robot
+    world = terrain if isinstance(terrain, Terrain) else parse_terrain(terrain)
+    config = sim or sim_preset(preset, duration=float(duration))
+    [outcome], _ = simulate_batch([body], [world], [controller], config, seeds=seed)
+    return outcome
+
+
+__all__ = ["Locomotion", "simulate"]

@@ -1,0 +1,1 @@
+"""Slow NumPy oracles of the compiled kernels, for the tests."""

@@ -95,11 +95,13 @@ def unseen_velocities(path: Path, generation: int = GENERATIONS) -> dict:
         return json.loads(cache.read_text())
     from somite._io import write_atomic
     from somite.brain.genome import Genome
-    from somite.experiments.runner import RunDirectory
+    from somite.sim.config import preset
     from somite.sim.terrain import hilly
     from somite.tasks.validation import evaluate, validation_terrains
 
-    sim = RunDirectory(path).saved_config().sim()
+    config = json.loads((path / "config.json").read_text())
+    sim = preset(config["preset"], duration=float(config["duration"]),
+                 transient=float(config["transient"]))
     with open(path / "bests.jsonl", encoding="utf-8") as lines:
         entry = next(e for e in map(json.loads, lines) if e["generation"] == generation)
     best = Genome.from_dict(entry["genome"])

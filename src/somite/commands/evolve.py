@@ -45,6 +45,11 @@ def add_evolution_options(parser: argparse.ArgumentParser) -> None:
                         "or a partition.json")
     parser.add_argument("--weights-only", action="store_true", default=None,
                         help="the ablation: only weight mutation (p_mutate_edge 1, others 0)")
+    parser.add_argument("--reevaluate-parents", action=argparse.BooleanOptionalAction,
+                        default=None,
+                        help="evaluate parents again every generation, on new terrains (the "
+                        "default, as the authors' code; --no-reevaluate-parents: Algorithm 1 "
+                        "as printed, each parent keeps its one evaluation)")
     parser.add_argument("--checkpoint-every", type=int)
     parser.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
     parser.add_argument("--force", action="store_true", help="overwrite an existing run")
@@ -53,7 +58,7 @@ def add_evolution_options(parser: argparse.ArgumentParser) -> None:
 
 _OPTIONS = ("preset", "shape", "sensors", "generations", "population", "seed", "terrain",
             "duration", "evaluations", "validate_every", "omega", "modules", "weights_only",
-            "checkpoint_every")
+            "reevaluate_parents", "checkpoint_every")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -2,9 +2,9 @@
 
 Per generation: n_pop offspring, each a mutation of a parent chosen by tournament (size 5,
 drawn with replacement); offspring evaluated each on its own fresh random terrain; with
-``reevaluate_parents`` (the authors' code) the parents are evaluated again and their fitness
-replaced; parents and offspring merged; the n_pop best kept, ties broken at random. NaN
-fitness counts as the worst.
+``reevaluate_parents`` (the authors' code, and somite's default) the parents are evaluated
+again and their fitness replaced; parents and offspring merged; the n_pop best kept, ties
+broken at random. NaN fitness counts as the worst.
 
 The EA does not evaluate: :meth:`GraphEA.ask` says which genomes need a fitness and
 :meth:`GraphEA.tell` takes it. Its randomness comes from two generators spawned from one
@@ -107,7 +107,7 @@ class GraphEA:
     config : GAConfig, optional
         The EA's configuration; keyword ``options`` (any :class:`GAConfig` or
         :class:`~somite.evolution.operators.OperatorConfig` field: ``omega=10``,
-        ``reevaluate_parents=True``, ``p_add_node=0.3``, ...) go on top of it.
+        ``reevaluate_parents=False``, ``p_add_node=0.3``, ...) go on top of it.
 
     Attributes
     ----------

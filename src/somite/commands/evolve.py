@@ -58,9 +58,11 @@ _OPTIONS = ("preset", "shape", "sensors", "generations", "population", "seed", "
 
 def run(args: argparse.Namespace) -> int:
     config = configuration(args)
-    with progress_bar(config.generations, args.quiet) as report:
-        ea = evolve(config, args.out, resume=args.resume, force=args.force, progress=report)
-    summarise(ea, RunDirectory(args.out), args.quiet)
+    # Locked before the progress bar starts, so that a refusal is the only line printed.
+    with RunDirectory(args.out).locked() as run_dir:
+        with progress_bar(config.generations, args.quiet) as report:
+            ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report)
+    summarise(ea, run_dir, args.quiet)
     return 0
 
 

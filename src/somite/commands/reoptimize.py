@@ -32,12 +32,14 @@ def run(args: argparse.Namespace) -> int:
     donors = [load_genome(path) for path in args.donors]
     shape = genome.body.shape.grid_string()
     config = configuration(args, shape=shape, start=str(args.genome))
-    with progress_bar(config.generations, args.quiet) as report:
-        ea = evolve(config, args.out, resume=args.resume, force=args.force, progress=report,
-                    start=None if args.resume else genome)
     sim = config.task().sim
-    velocities = donor_velocities(donors, sim, args.validation) if donors else []
-    rows = transfer_curve(args.out, velocities, sim, args.validation)
+    # Locked until transfer.csv is written: it is part of the run.
+    with RunDirectory(args.out).locked() as run_dir:
+        with progress_bar(config.generations, args.quiet) as report:
+            ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report,
+                        start=None if args.resume else genome)
+        velocities = donor_velocities(donors, sim, args.validation) if donors else []
+        rows = transfer_curve(args.out, velocities, sim, args.validation)
     summarise(ea, RunDirectory(args.out), args.quiet)
     donors_mean = mean_velocity(velocities) if donors else math.nan
     if not args.quiet and donors:

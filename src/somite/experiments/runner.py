@@ -30,6 +30,7 @@ from ..evolution.config import GAConfig
 from ..evolution.ea import GraphEA
 from ..sim.body import Shape
 from .config import RunConfig, resolve
+from .lock import RunLock
 from .logfile import LOG_COLUMNS, format_row
 
 RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json")
@@ -74,6 +75,25 @@ class RunDirectory:
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
+        self.lock = RunLock(self.path)
+
+    def locked(self) -> RunDirectory:
+        """Create the folder if need be and take its lock (see :mod:`.lock`); a context
+        manager that releases it."""
+        if self.path.exists() and not self.path.is_dir():
+            raise bad("out", str(self.path), "exists and is not a directory")
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise bad("out", str(self.path), f"cannot create it ({error.strerror})") from None
+        self.lock.acquire()
+        return self
+
+    def __enter__(self) -> RunDirectory:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.lock.release()
 
     def file(self, name: str) -> Path:
         return self.path / name
@@ -82,11 +102,8 @@ class RunDirectory:
         return any(self.file(name).exists() for name in RUN_FILES)
 
     def prepare_new(self, config: RunConfig, force: bool) -> None:
-        if self.path.exists() and not self.path.is_dir():
-            raise bad("out", str(self.path), "exists and is not a directory")
         if self.has_run() and not force:
             raise bad("out", str(self.path), "holds a run already; use --resume or --force")
-        self.path.mkdir(parents=True, exist_ok=True)
         for name in RUN_FILES:
             self.file(name).unlink(missing_ok=True)
         write_atomic(self.file("config.json"), json.dumps(config.to_dict(), indent=2) + "\n")
@@ -162,7 +179,7 @@ def step(ea: GraphEA, task, config: RunConfig) -> dict:
 
 def evolve(
     config: RunConfig,
-    out: str | Path,
+    out: str | Path | RunDirectory,
     resume: bool = False,
     force: bool = False,
     progress: Progress | None = None,
@@ -172,9 +189,17 @@ def evolve(
 
     With ``start`` (a re-optimisation), the first population is ``start`` and mutants of it;
     its shape must be the configuration's. ``progress`` is called after every generation with
-    the EA and the log row.
+    the EA and the log row. The run directory is locked for the run (a second process is
+    refused); a caller that needs it locked for longer passes a locked :class:`RunDirectory`.
     """
-    run_dir = RunDirectory(out)
+    if isinstance(out, RunDirectory) and out.lock.held:
+        return _evolve(config, out, resume, force, progress, start)
+    with RunDirectory(out.path if isinstance(out, RunDirectory) else out).locked() as run_dir:
+        return _evolve(config, run_dir, resume, force, progress, start)
+
+
+def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
+            progress: Progress | None, start: Genome | None) -> GraphEA:
     if resume:
         ea = load_checkpoint(run_dir.file("checkpoint.json"), config.ga)
     else:

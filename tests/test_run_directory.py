@@ -1,0 +1,102 @@
+"""Run directories under hostile use: locks, kills at any moment, foreign checkpoints, --force
+(issue 10)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from somite.cli import main
+from somite.errors import SomiteError
+from somite.experiments.lock import LOCK_NAME, RunLock
+
+ARGS = ["evolve", "--shape", "worm", "--population", "10", "--generations", "30",
+        "--duration", "2", "--seed", "5", "--checkpoint-every", "4", "--quiet"]
+
+
+def rows(run: Path) -> list[dict]:
+    with open(run / "log.csv") as handle:
+        return [{k: v for k, v in r.items() if k != "elapsed_seconds"}
+                for r in csv.DictReader(handle)]
+
+
+def start(out: Path, *extra: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "somite.cli", *ARGS, "--out", str(out),
+                             *extra])
+
+
+def wait_for(child: subprocess.Popen, ready, what: str) -> None:
+    deadline = time.time() + 180
+    while not ready():
+        assert child.poll() is None, f"the run ended before {what}"
+        assert time.time() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.002)
+
+
+def log_rows(run: Path) -> int:
+    try:
+        return len((run / "log.csv").read_text().splitlines()) - 1
+    except FileNotFoundError:
+        return -1
+
+
+@pytest.fixture(scope="module")
+def whole(tmp_path_factory) -> Path:
+    """The uninterrupted run every interrupted one must end up identical to."""
+    out = tmp_path_factory.mktemp("whole") / "run"
+    assert main([*ARGS, "--out", str(out)]) == 0
+    return out
+
+
+def assert_same_run(run: Path, whole: Path) -> None:
+    assert rows(run) == rows(whole)
+    for name in ("best.json", "bests.jsonl"):
+        assert (run / name).read_bytes() == (whole / name).read_bytes(), name
+
+
+def test_second_process_is_refused_and_a_dead_holders_lock_is_taken_over(tmp_path, whole):
+    run = tmp_path / "run"
+    first = start(run)
+    try:
+        wait_for(first, lambda: log_rows(run) >= 3 and (run / "checkpoint.json").exists(),
+                 "its first generations")
+        # Frozen, the first run holds its lock for as long as the test needs.
+        os.kill(first.pid, signal.SIGSTOP)
+        before = {p.name: p.read_bytes() for p in run.iterdir() if p.name != LOCK_NAME}
+        for extra in ((), ("--resume",), ("--force",)):
+            second = subprocess.run([sys.executable, "-m", "somite.cli", *ARGS, "--out",
+                                     str(run), *extra], capture_output=True, text=True)
+            assert second.returncode == 2, extra
+            assert second.stderr.count("\n") == 1, second.stderr
+            assert f"in use by process {first.pid} on {socket.gethostname()}" in second.stderr
+            assert "started 20" in second.stderr
+            assert {p.name: p.read_bytes() for p in run.iterdir()
+                    if p.name != LOCK_NAME} == before
+    finally:
+        os.kill(first.pid, signal.SIGKILL)
+        first.wait()
+    assert first.returncode == -signal.SIGKILL
+    assert json.loads((run / LOCK_NAME).read_text())["pid"] == first.pid  # left behind
+    assert main([*ARGS, "--out", str(run), "--resume"]) == 0
+    assert_same_run(run, whole)
+    assert not (run / LOCK_NAME).exists()
+
+
+def test_lock_in_one_process(tmp_path):
+    with RunLock(tmp_path):
+        with pytest.raises(SomiteError, match=f"in use by process {os.getpid()} "):
+            RunLock(tmp_path).acquire()
+    # A lock file whose writer is gone (no flock on it) is taken over.
+    (tmp_path / LOCK_NAME).write_text('{"pid": 999999999, "host": "x", "started": "y"}')
+    with RunLock(tmp_path) as lock:
+        assert json.loads(lock.path.read_text())["pid"] == os.getpid()
+    assert not (tmp_path / LOCK_NAME).exists()

@@ -100,3 +100,62 @@ def test_lock_in_one_process(tmp_path):
     with RunLock(tmp_path) as lock:
         assert json.loads(lock.path.read_text())["pid"] == os.getpid()
     assert not (tmp_path / LOCK_NAME).exists()
+
+
+KILLER = """
+import os, signal, sys
+from somite.cli import main
+kill_at, count, real = int(sys.argv[1]), [0], os.replace
+def replace(source, target):
+    count[0] += 1
+    if count[0] == kill_at:  # the temporary file is written, the rename not done
+        os.kill(os.getpid(), signal.SIGKILL)
+    real(source, target)
+os.replace = replace
+sys.exit(main(sys.argv[2:]))
+"""
+
+SHORT = ["evolve", "--shape", "worm", "--population", "6", "--generations", "3",
+         "--duration", "2", "--seed", "2", "--checkpoint-every", "2", "--quiet"]
+
+
+def test_a_kill_at_any_file_write_resumes_to_the_same_run(tmp_path):
+    """Killed at each atomic write of a run in turn (the first: config.json, before any
+    checkpoint), ``--resume`` ends in the uninterrupted run's files, temporary files gone."""
+    whole = tmp_path / "whole"
+    assert main([*SHORT, "--out", str(whole)]) == 0
+    kill_at = 0
+    while True:
+        kill_at += 1
+        run = tmp_path / f"killed-{kill_at}"
+        child = subprocess.run([sys.executable, "-c", KILLER, str(kill_at), *SHORT, "--out",
+                                str(run)])
+        if child.returncode == 0:
+            break
+        assert child.returncode == -signal.SIGKILL
+        assert any(p.name.endswith(".tmp") for p in run.iterdir())
+        assert main([*SHORT, "--out", str(run), "--resume"]) == 0, kill_at
+        assert_same_run(run, whole)
+        assert sorted(p.name for p in run.iterdir()) == sorted(p.name for p in whole.iterdir())
+    assert kill_at > 6  # config, log, bests, then best.json and checkpoint at 0, 2 and 3
+
+
+def test_a_kill_as_soon_as_the_directory_exists_resumes(tmp_path):
+    whole = tmp_path / "whole"
+    assert main([*SHORT, "--out", str(whole)]) == 0
+    run = tmp_path / "run"
+    child = subprocess.Popen([sys.executable, "-m", "somite.cli", *SHORT, "--out", str(run)])
+    wait_for(child, run.exists, "the directory")
+    child.kill()
+    assert child.wait() == -signal.SIGKILL
+    assert not (run / "checkpoint.json").exists()
+    assert main([*SHORT, "--out", str(run), "--resume"]) == 0
+    assert_same_run(run, whole)
+
+
+def test_resume_with_more_generations_updates_config(tmp_path):
+    run = tmp_path / "run"
+    assert main([*SHORT, "--out", str(run)]) == 0
+    assert main([*SHORT, "--out", str(run), "--resume", "--generations", "5"]) == 0
+    assert json.loads((run / "config.json").read_text())["generations"] == 5
+    assert [r["generation"] for r in rows(run)] == [str(g) for g in range(6)]

@@ -46,7 +46,8 @@ def add_evolution_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--weights-only", action="store_true", default=None,
                         help="the ablation: only weight mutation (p_mutate_edge 1, others 0)")
     parser.add_argument("--checkpoint-every", type=int)
-    parser.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
+    parser.add_argument("--resume", action="store_true", help="continue from the last checkpoint (a run killed before its first "
+                        "one starts again: the same run)")
     parser.add_argument("--force", action="store_true", help="overwrite an existing run")
     add_options(parser, "quiet")
 
@@ -73,7 +74,10 @@ def configuration(args: argparse.Namespace, **fixed) -> RunConfig:
     run_dir = RunDirectory(args.out)
     if args.resume and args.force:
         raise bad("resume", True, "--resume and --force exclude each other")
-    if args.resume:
+    # A run killed before it wrote config.json left an empty directory: resuming it is
+    # starting it.
+    unborn = run_dir.path.is_dir() and not run_dir.has_run()
+    if args.resume and not unborn:
         saved = run_dir.saved_config().to_dict()
         changed = {k: v for k, v in cli.items() if k != "generations" and saved.get(k) != v}
         if args.config or changed:

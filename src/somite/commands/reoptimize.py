@@ -37,7 +37,7 @@ def run(args: argparse.Namespace) -> int:
     with RunDirectory(args.out).locked() as run_dir:
         with progress_bar(config.generations, args.quiet) as report:
             ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report,
-                        start=None if args.resume else genome)
+                        start=genome)
         velocities = donor_velocities(donors, sim, args.validation) if donors else []
         rows = transfer_curve(args.out, velocities, sim, args.validation)
     summarise(ea, RunDirectory(args.out), args.quiet)

@@ -11,7 +11,10 @@ A run directory holds
 
 ``--resume`` cuts ``log.csv`` and ``bests.jsonl`` back to the checkpoint's generation and goes
 on from there; as every random draw comes from the checkpointed generators, the resumed run
-writes the same rows and the same best genome as one that was never interrupted.
+writes the same rows and the same best genome as one that was never interrupted. A run killed
+before its first checkpoint (during generation 0, or before it wrote ``config.json``) starts
+again on ``--resume``, which for a seeded run is the same thing; temporary files of writes a
+kill cut short are removed. ``--resume --generations N`` rewrites ``config.json`` with N.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import csv
 import io
 import json
 import math
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -33,7 +37,10 @@ from .config import RunConfig, resolve
 from .lock import RunLock
 from .logfile import LOG_COLUMNS, format_row
 
-RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json")
+RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json",
+             "transfer.csv")
+_TEMPORARY = re.compile(r"\.(?P<name>.+)\.\d+\.[0-9a-f]{8}\.tmp")
+"""A temporary file of :func:`somite._io.write_atomic` (``.NAME.PID.RAND.tmp``)."""
 CHECKPOINT_FORMAT = "somite-checkpoint"
 CHECKPOINT_VERSION = 2
 """Version 2 (issue 9): two generators (variation, evaluation) instead of one. A version-1
@@ -101,14 +108,33 @@ class RunDirectory:
     def has_run(self) -> bool:
         return any(self.file(name).exists() for name in RUN_FILES)
 
+    def remove_temporary(self) -> None:
+        """Delete the temporary files a killed writer of run files left (call it locked:
+        then no live writer owns them)."""
+        for path in self.path.iterdir():
+            match = _TEMPORARY.fullmatch(path.name)
+            if match and match["name"] in RUN_FILES and path.is_file():
+                path.unlink(missing_ok=True)
+
+    def logged_generations(self) -> int:
+        """How many complete rows ``log.csv`` holds (0 when it is missing)."""
+        log = self.file("log.csv")
+        if not log.is_file():
+            return 0
+        lines = log.read_text(encoding="utf-8").splitlines()
+        return max(0, sum(1 for line in lines[1:] if line.count(",") == len(LOG_COLUMNS) - 1))
+
     def prepare_new(self, config: RunConfig, force: bool) -> None:
         if self.has_run() and not force:
             raise bad("out", str(self.path), "holds a run already; use --resume or --force")
         for name in RUN_FILES:
             self.file(name).unlink(missing_ok=True)
-        write_atomic(self.file("config.json"), json.dumps(config.to_dict(), indent=2) + "\n")
+        self.write_config(config)
         write_atomic(self.file("log.csv"), ",".join(LOG_COLUMNS) + "\n")
         write_atomic(self.file("bests.jsonl"), "")
+
+    def write_config(self, config: RunConfig) -> None:
+        write_atomic(self.file("config.json"), json.dumps(config.to_dict(), indent=2) + "\n")
 
     def saved_config(self) -> RunConfig:
         path = self.file("config.json")
@@ -201,7 +227,21 @@ def evolve(
 def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
             progress: Progress | None, start: Genome | None) -> GraphEA:
     if resume:
+        run_dir.remove_temporary()
+        if not run_dir.file("checkpoint.json").exists():
+            # Killed before its first checkpoint (during generation 0): as every draw comes
+            # from the seed, starting again is resuming. More than generation 0 logged
+            # means the checkpoint went missing, and the log is not thrown away.
+            logged = run_dir.logged_generations()
+            if logged > 1:
+                raise bad("resume", str(run_dir.path),
+                          f"no checkpoint.json, but log.csv holds {logged} generations")
+            resume, force = False, True
+    if resume:
         ea = load_checkpoint(run_dir.file("checkpoint.json"), config.ga)
+        if ea.generation > config.generations:
+            raise bad("generations", config.generations,
+                      f"the checkpoint is at generation {ea.generation} already")
     else:
         body = config.body() if start is None else start.body
         if body.shape != Shape.parse(config.shape):
@@ -211,6 +251,8 @@ def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
     task = config.task(ea.body)
     if resume:
         run_dir.cut_back(ea.generation)
+        if run_dir.saved_config() != config:  # --resume --generations N
+            run_dir.write_config(config)
     else:
         run_dir.prepare_new(config, force)
     while ea.generation < config.generations:

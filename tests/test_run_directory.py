@@ -159,3 +159,36 @@ def test_resume_with_more_generations_updates_config(tmp_path):
     assert main([*SHORT, "--out", str(run), "--resume", "--generations", "5"]) == 0
     assert json.loads((run / "config.json").read_text())["generations"] == 5
     assert [r["generation"] for r in rows(run)] == [str(g) for g in range(6)]
+
+
+def files(run: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in run.iterdir()}
+
+
+def refused(run: Path, capsys, message: str) -> None:
+    before = files(run)
+    assert main([*SHORT, "--out", str(run), "--resume"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1, err
+    assert files(run) == before
+
+
+def test_checkpoint_of_another_run_or_generation_is_refused(tmp_path, capsys):
+    run, other = tmp_path / "run", tmp_path / "other"
+    assert main([*SHORT, "--out", str(run)]) == 0
+    own = (run / "checkpoint.json").read_text()
+    for variation in (["--shape", "biped"], ["--seed", "3"], ["--sensors", "none"]):
+        assert main([*SHORT, *variation, "--out", str(other), "--force"]) == 0
+        (run / "checkpoint.json").write_text((other / "checkpoint.json").read_text())
+        refused(run, capsys, "belongs to another run")
+    state = json.loads(own)
+    for generation in (-5, 4, 10**6, 1.5, "2", None):
+        (run / "checkpoint.json").write_text(json.dumps({**state, "generation": generation}))
+        refused(run, capsys, f"checkpoint.generation={generation!r}: log.csv holds "
+                "generations 0 to 3")
+    (run / "checkpoint.json").write_text(json.dumps({**state, "version": 2}))
+    refused(run, capsys, "version 2 cannot be resumed")
+    (run / "checkpoint.json").write_text("[" * 200_000 + "]" * 200_000)
+    refused(run, capsys, "damaged checkpoint")
+    (run / "checkpoint.json").write_text(own)
+    assert main([*SHORT, "--out", str(run), "--resume"]) == 0

@@ -20,6 +20,7 @@ kill cut short are removed. ``--resume --generations N`` rewrites ``config.json`
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import math
@@ -32,7 +33,7 @@ from ..brain.genome import Genome
 from ..errors import bad
 from ..evolution.config import GAConfig
 from ..evolution.ea import GraphEA
-from ..sim.body import Shape
+from ..sim.body import Body, Shape
 from .config import RunConfig, resolve
 from .lock import RunLock
 from .logfile import LOG_COLUMNS, format_row
@@ -42,35 +43,58 @@ RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.j
 _TEMPORARY = re.compile(r"\.(?P<name>.+)\.\d+\.[0-9a-f]{8}\.tmp")
 """A temporary file of :func:`somite._io.write_atomic` (``.NAME.PID.RAND.tmp``)."""
 CHECKPOINT_FORMAT = "somite-checkpoint"
-CHECKPOINT_VERSION = 2
-"""Version 2 (issue 9): two generators (variation, evaluation) instead of one. A version-1
-checkpoint cannot be resumed: its single generator's draws are not the two of version 2."""
+CHECKPOINT_VERSION = 3
+"""Version 3 (issue 10): the checkpoint holds its run's fingerprint (:func:`run_fingerprint`).
+Version 2 (issue 9): two generators (variation, evaluation) instead of one. An older
+checkpoint cannot be resumed: it cannot be tied to its run, or its draws are not version 3's."""
 
 
-def save_checkpoint(path: Path, ea: GraphEA) -> None:
-    data = {"format": CHECKPOINT_FORMAT, "version": CHECKPOINT_VERSION, **ea.state()}
+def run_fingerprint(config: RunConfig, body: Body) -> str:
+    """A hash of everything that decides a run's draws: its resolved configuration but the
+    number of generations (``--resume`` may change that) and its body. A checkpoint is
+    resumed only in the run whose fingerprint it carries."""
+    options = {k: v for k, v in config.to_dict().items() if k != "generations"}
+    text = json.dumps({"config": options, "body": body.to_dict()}, sort_keys=True,
+                      separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def save_checkpoint(path: Path, ea: GraphEA, config: RunConfig) -> None:
+    data = {"format": CHECKPOINT_FORMAT, "version": CHECKPOINT_VERSION,
+            "run": run_fingerprint(config, ea.body), **ea.state()}
     write_atomic(path, json.dumps(data, separators=(",", ":")))
 
 
-def load_checkpoint(path: Path, config: GAConfig) -> GraphEA:
-    """Read a checkpoint; anything missing, damaged or of another version is a one-line
-    error."""
+def load_checkpoint(path: Path, config: RunConfig, logged: int) -> GraphEA:
+    """Read a checkpoint of the run ``config`` whose ``log.csv`` holds ``logged`` rows;
+    anything missing, damaged, of another version, of another run or at a generation the log
+    does not reach is a one-line error."""
     if not path.is_file():
         raise bad("resume", str(path.parent), "no checkpoint.json in this run directory")
     try:
-        data = json.loads(path.read_text())
-    except ValueError as error:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, RecursionError) as error:
         raise bad("checkpoint", str(path), f"damaged checkpoint ({error})") from None
     if not isinstance(data, dict) or data.get("format") != CHECKPOINT_FORMAT:
         raise bad("checkpoint", str(path), "damaged checkpoint (not a somite checkpoint)")
     if data.get("version") != CHECKPOINT_VERSION:
         raise bad("checkpoint", str(path),
-                  f"version {data.get('version')} cannot be resumed by this somite (it reads "
+                  f"version {data.get('version')!r} cannot be resumed by this somite (it reads "
                   f"version {CHECKPOINT_VERSION}); start the run again")
+    generation = data.get("generation")
+    if not isinstance(generation, int) or isinstance(generation, bool) or not (
+        0 <= generation < logged
+    ):
+        held = f"generations 0 to {logged - 1}" if logged else "no generation"
+        raise bad("checkpoint.generation", generation, f"log.csv holds {held}")
     try:
-        return GraphEA.restore(data, config)
-    except (ValueError, KeyError, TypeError, AttributeError) as error:
+        ea = GraphEA.restore(data, config.ga)
+    except (ValueError, KeyError, TypeError, AttributeError, RecursionError) as error:
         raise bad("checkpoint", str(path), f"damaged checkpoint ({error})") from None
+    if data.get("run") != run_fingerprint(config, ea.body):
+        raise bad("checkpoint", str(path), "belongs to another run (its configuration or body "
+                  "is not this directory's config.json)")
+    return ea
 
 
 def _json_number(value: float) -> float | None:
@@ -185,9 +209,9 @@ class RunDirectory:
         with open(self.file("bests.jsonl"), "a", encoding="utf-8") as handle:
             handle.write(json.dumps(entry, separators=(",", ":")) + "\n")
 
-    def save(self, ea: GraphEA) -> None:
+    def save(self, ea: GraphEA, config: RunConfig) -> None:
         ea.best.save(self.file("best.json"))
-        save_checkpoint(self.file("checkpoint.json"), ea)
+        save_checkpoint(self.file("checkpoint.json"), ea, config)
 
 
 Progress = Callable[[GraphEA, dict], None]
@@ -238,7 +262,8 @@ def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
                           f"no checkpoint.json, but log.csv holds {logged} generations")
             resume, force = False, True
     if resume:
-        ea = load_checkpoint(run_dir.file("checkpoint.json"), config.ga)
+        ea = load_checkpoint(run_dir.file("checkpoint.json"), config,
+                             run_dir.logged_generations())
         if ea.generation > config.generations:
             raise bad("generations", config.generations,
                       f"the checkpoint is at generation {ea.generation} already")
@@ -263,5 +288,5 @@ def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
         if ea.generation % config.checkpoint_every == 0 or ea.generation in (
             0, config.generations
         ):
-            run_dir.save(ea)
+            run_dir.save(ea, config)
     return ea

@@ -192,3 +192,37 @@ def test_checkpoint_of_another_run_or_generation_is_refused(tmp_path, capsys):
     refused(run, capsys, "damaged checkpoint")
     (run / "checkpoint.json").write_text(own)
     assert main([*SHORT, "--out", str(run), "--resume"]) == 0
+
+
+def test_force_deletes_only_what_the_manifest_lists(tmp_path, capsys):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.json").write_text("my own notes\n")
+    assert main([*SHORT, "--out", str(run)]) == 2
+    assert "holds a run already" in capsys.readouterr().err
+    for extra in (["--force"], ["--force", "--seed", "9"]):
+        refused_force(run, capsys, extra, "holds config.json, which is not a file of the run")
+    (run / "config.json").unlink()
+    assert main([*SHORT, "--out", str(run)]) == 0
+    assert main([*SHORT, "--out", str(run), "--force", "--seed", "9"]) == 0
+    (run / "notes.txt").write_text("mine\n")
+    refused_force(run, capsys, [], "holds notes.txt, which is not a file of the run")
+    (run / "notes.txt").unlink()
+    (run / "best.json").unlink()
+    (run / "best.json").mkdir()  # a run file that is a folder: nothing deleted, no crash
+    refused_force(run, capsys, [], "holds best.json, which is not a file of the run")
+    (run / "best.json").rmdir()
+    (run / "manifest.json").write_text('{"files": ["notes.txt"]}')
+    refused_force(run, capsys, [], "holds a manifest.json that is not a somite run's")
+
+
+def refused_force(run: Path, capsys, extra: list[str], message: str) -> None:
+    before = files_and_folders(run)
+    assert main([*SHORT, "--out", str(run), "--force", *extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1, err
+    assert files_and_folders(run) == before
+
+
+def files_and_folders(run: Path) -> dict[str, bytes | None]:
+    return {p.name: p.read_bytes() if p.is_file() else None for p in run.iterdir()}

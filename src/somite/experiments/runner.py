@@ -7,7 +7,11 @@ A run directory holds
 - ``bests.jsonl``: the best genome of every generation, one compact JSON object a line;
 - ``best.json``: the best genome so far with its body (any command that takes a genome reads it);
 - ``checkpoint.json``: population, fitness, origins and both generators' states, written
-  atomically at generation 0, every ``checkpoint_every`` generations and at the end.
+  atomically at generation 0, every ``checkpoint_every`` generations and at the end;
+- ``manifest.json``: the files above that the run wrote (``transfer.csv`` too, for a
+  re-optimisation), written before them: ``--force`` deletes these and refuses a folder
+  holding anything else;
+- ``.somite.lock``, while the run goes on (:mod:`somite.experiments.lock`).
 
 ``--resume`` cuts ``log.csv`` and ``bests.jsonl`` back to the checkpoint's generation and goes
 on from there; as every random draw comes from the checkpointed generators, the resumed run
@@ -35,11 +39,14 @@ from ..evolution.config import GAConfig
 from ..evolution.ea import GraphEA
 from ..sim.body import Body, Shape
 from .config import RunConfig, resolve
-from .lock import RunLock
+from .lock import LOCK_NAME, RunLock
 from .logfile import LOG_COLUMNS, format_row
 
 RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json",
              "transfer.csv")
+MANIFEST = "manifest.json"
+MANIFEST_FORMAT = "somite-run-manifest"
+"""``manifest.json`` lists the files a run wrote: the only ones ``--force`` deletes."""
 _TEMPORARY = re.compile(r"\.(?P<name>.+)\.\d+\.[0-9a-f]{8}\.tmp")
 """A temporary file of :func:`somite._io.write_atomic` (``.NAME.PID.RAND.tmp``)."""
 CHECKPOINT_FORMAT = "somite-checkpoint"
@@ -137,8 +144,57 @@ class RunDirectory:
         then no live writer owns them)."""
         for path in self.path.iterdir():
             match = _TEMPORARY.fullmatch(path.name)
-            if match and match["name"] in RUN_FILES and path.is_file():
+            if match and match["name"] in (*RUN_FILES, MANIFEST) and path.is_file():
                 path.unlink(missing_ok=True)
+
+    def manifest(self) -> list[str]:
+        """The files this run wrote (or is about to), from ``manifest.json``; [] without
+        one (or with one that is not somite's)."""
+        return self._read_manifest() or []
+
+    def _read_manifest(self) -> list[str] | None:
+        try:
+            data = json.loads(self.file(MANIFEST).read_text(encoding="utf-8"))
+        except (OSError, ValueError, RecursionError):
+            return None
+        if not isinstance(data, dict) or data.get("format") != MANIFEST_FORMAT or not (
+            isinstance(data.get("files"), list)
+        ):
+            return None
+        return [n for n in data["files"] if isinstance(n, str) and n in RUN_FILES]
+
+    def record(self, *names: str) -> None:
+        """Add ``names`` to the manifest; call it before writing them, so that a kill between
+        the two leaves no file of the run unlisted."""
+        listed = self.manifest()
+        if all(n in listed for n in names) and self.file(MANIFEST).is_file():
+            return
+        data = {"format": MANIFEST_FORMAT, "files": [*listed, *(n for n in names
+                                                                 if n not in listed)]}
+        write_atomic(self.file(MANIFEST), json.dumps(data) + "\n")
+
+    def foreign(self) -> str | None:
+        """The first entry of the folder that is not a file this run's manifest lists (nor
+        the manifest, the lock or a temporary file of a run file), or None."""
+        listed = self.manifest()
+        own = {LOCK_NAME, *listed}
+        if listed:
+            own.add(MANIFEST)
+        for path in sorted(self.path.iterdir()):
+            match = _TEMPORARY.fullmatch(path.name)
+            if match and match["name"] in (*RUN_FILES, MANIFEST):
+                continue
+            if path.name not in own or path.is_symlink() or not path.is_file():
+                return path.name
+        return None
+
+    def remove_own(self) -> None:
+        """Delete the files the manifest lists (and temporary files), nothing else."""
+        self.remove_temporary()
+        for name in self.manifest():
+            path = self.file(name)
+            if path.is_file() and not path.is_symlink():
+                path.unlink()
 
     def logged_generations(self) -> int:
         """How many complete rows ``log.csv`` holds (0 when it is missing)."""
@@ -148,11 +204,22 @@ class RunDirectory:
         lines = log.read_text(encoding="utf-8").splitlines()
         return max(0, sum(1 for line in lines[1:] if line.count(",") == len(LOG_COLUMNS) - 1))
 
-    def prepare_new(self, config: RunConfig, force: bool) -> None:
-        if self.has_run() and not force:
+    def prepare_new(self, config: RunConfig, force: bool, restart: bool = False) -> None:
+        """Start the run's files. ``force``: replace a run here, but refuse when the folder
+        holds anything its manifest does not list. ``restart``: replace this run's own files
+        (one killed before its first checkpoint), leaving anything else alone."""
+        if self.file(MANIFEST).exists() and self._read_manifest() is None:
+            raise bad("out", str(self.path), f"holds a {MANIFEST} that is not a somite run's")
+        if force and not restart:
+            name = self.foreign()
+            if name is not None:
+                raise bad("out", str(self.path),
+                          f"holds {name}, which is not a file of the run's manifest.json; "
+                          "--force deletes only those: move it away first")
+        elif self.has_run() and not restart:
             raise bad("out", str(self.path), "holds a run already; use --resume or --force")
-        for name in RUN_FILES:
-            self.file(name).unlink(missing_ok=True)
+        self.remove_own()
+        self.record("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json")
         self.write_config(config)
         write_atomic(self.file("log.csv"), ",".join(LOG_COLUMNS) + "\n")
         write_atomic(self.file("bests.jsonl"), "")
@@ -250,6 +317,7 @@ def evolve(
 
 def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
             progress: Progress | None, start: Genome | None) -> GraphEA:
+    restart = False
     if resume:
         run_dir.remove_temporary()
         if not run_dir.file("checkpoint.json").exists():
@@ -260,7 +328,7 @@ def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
             if logged > 1:
                 raise bad("resume", str(run_dir.path),
                           f"no checkpoint.json, but log.csv holds {logged} generations")
-            resume, force = False, True
+            resume, restart = False, True
     if resume:
         ea = load_checkpoint(run_dir.file("checkpoint.json"), config,
                              run_dir.logged_generations())
@@ -279,7 +347,7 @@ def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
         if run_dir.saved_config() != config:  # --resume --generations N
             run_dir.write_config(config)
     else:
-        run_dir.prepare_new(config, force)
+        run_dir.prepare_new(config, force, restart)
     while ea.generation < config.generations:
         row = step(ea, task, config)
         run_dir.append(row, ea.best)

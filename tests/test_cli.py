@@ -88,3 +88,46 @@ def test_evolve_records_the_shared_defaults(tmp_path):
     saved = json.loads((out / "config.json").read_text())
     shared = {k: v for k, v in DEFAULTS.items() if k != "validation"}
     assert {k: saved[k] for k in shared} == shared
+
+
+@pytest.fixture(scope="module")
+def genome_file(tmp_path_factory):
+    import numpy as np
+
+    from somite.evolution.operators import initial_genome
+    from somite.sim.body import Body
+
+    path = tmp_path_factory.mktemp("genome") / "g.json"
+    initial_genome(Body.build("worm"), np.random.default_rng(0)).save(path)
+    return path
+
+
+# Sizes past somite.limits, each refused before any work, in every command that takes one.
+BEYOND = [
+    ("duration", ["simulate", "--duration", "1e308"]),
+    ("duration", ["simulate", "--duration", "1e-9"]),
+    ("duration", ["bench", "--duration", "1e6"]),
+    ("duration", ["evolve", "--out", "{out}", "--duration", "601"]),
+    ("duration", ["evaluate", "{genome}", "--duration", "1e308"]),
+    ("duration", ["show", "{genome}", "--out", "{out}.mp4", "--duration", "1e308"]),
+    ("population", ["evolve", "--out", "{out}", "--population", "100000000"]),
+    ("generations", ["evolve", "--out", "{out}", "--generations", "10000000"]),
+    ("evaluations", ["evolve", "--out", "{out}", "--evaluations", "5000"]),
+    ("shape", ["evolve", "--out", "{out}", "--shape", "1000x1000"]),
+    ("shape", ["evolve", "--out", "{out}", "--shape", "1" * 40]),
+    ("shape", ["simulate", "--shape", "100000000000x1"]),
+    ("validation", ["evaluate", "{genome}", "--validation", "100000"]),
+    ("validation", ["reoptimize", "{genome}", "--out", "{out}", "--validation", "100000"]),
+    ("frames", ["show", "{genome}", "--out", "{out}.png", "--frames", "100000"]),
+    ("fps", ["show", "{genome}", "--out", "{out}.mp4", "--fps", "0.001"]),
+]
+
+
+@pytest.mark.parametrize("field, command", BEYOND)
+def test_sizes_beyond_the_limits_are_one_line_and_write_nothing(field, command, tmp_path,
+                                                                  genome_file, capsys):
+    args = [a.format(out=tmp_path / "out", genome=genome_file) for a in command]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"error: {field}=" in err, err
+    assert list(tmp_path.iterdir()) == []

@@ -83,6 +83,10 @@ def run(args: argparse.Namespace) -> int:
     out = _check_out(args.out)
     if args.validation < 0:
         raise bad("validation", args.validation, "must be 0 or more")
+    if args.validation:
+        from ..tasks.validation import check_count
+
+        check_count(args.validation)
     config = simulation_config(args)
     genomes = (load_genome(args.donor1), load_genome(args.donor2))
     donors = tuple(zip(genomes, _donor_partitions(args.partition, genomes)))

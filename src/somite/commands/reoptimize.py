@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 import math
 
-from ..errors import bad
 from ..experiments.reoptimize import donor_velocities, transfer_curve
 from ..experiments.runner import RunDirectory, evolve
+from ..tasks.validation import check_count
 from ..tasks.velocity import mean_velocity
 from .common import add_genome, add_options, load_genome
 from .evolve import add_evolution_options, configuration, progress_bar, summarise
@@ -26,8 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.validation < 1:
-        raise bad("validation", args.validation, "must be at least 1")
+    check_count(args.validation)
     genome = load_genome(args.genome)
     donors = [load_genome(path) for path in args.donors]
     shape = genome.body.shape.grid_string()

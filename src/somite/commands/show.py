@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from ..errors import bad
+from ..limits import MAX_FRAMES, at_most
 from ..sim.config import CONTROL_HZ
 from ..sim.terrain import TERRAIN_HELP
 from ..viz.frame import frame_steps
@@ -59,6 +60,7 @@ def run(args: argparse.Namespace) -> int:
             raise bad("frames", args.frames, "a time-lapse strip is a .png; drop --frames")
         if args.frames < 1:
             raise bad("frames", args.frames, "must be at least 1")
+        at_most("frames", args.frames, MAX_FRAMES)
     # Check what can be checked before a simulation that may take a while.
     frame_steps(1, args.fps)
     frame_size(args.width, args.height, TILE_SIZE if out.suffix.lower() in STRIP_FORMATS

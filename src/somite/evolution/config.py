@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass, field, fields, replace
 
 from ..errors import bad
+from ..limits import MAX_POPULATION, at_most
 from ..sim.body import Shape
 from ..sim.partition import Partition
 from .operators import OperatorConfig
@@ -73,6 +74,7 @@ class GAConfig:
         check_types(GAConfig, {f.name: getattr(self, f.name) for f in fields(self)})
         if not isinstance(self.operators, OperatorConfig):
             raise bad("operators", self.operators, "expected an OperatorConfig")
+        at_most("population", self.population, MAX_POPULATION)
         for name, low in (("population", 2), ("tournament", 1)):
             if getattr(self, name) < low:
                 raise bad(name, getattr(self, name), f"must be at least {low}")

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from ..errors import bad
+from ..limits import MAX_EVALUATIONS, MAX_GENERATIONS, at_most
 from ..evolution.config import GAConfig, check_types
 from ..evolution.operators import OperatorConfig
 from ..sim.body import Body
@@ -78,7 +79,10 @@ class RunConfig:
                           ("checkpoint_every", 1)):
             if getattr(self, name) < low:
                 raise bad(name, getattr(self, name), f"must be at least {low}")
+        at_most("generations", self.generations, MAX_GENERATIONS)
+        at_most("evaluations", self.evaluations, MAX_EVALUATIONS)
         parse_distribution(self.terrain)
+        self.body()  # validates shape and sensors before any run starts
         self.task()  # validates duration and transient
 
     def body(self) -> Body:

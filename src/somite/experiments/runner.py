@@ -120,6 +120,7 @@ class RunDirectory:
         manager that releases it."""
         if self.path.exists() and not self.path.is_dir():
             raise bad("out", str(self.path), "exists and is not a directory")
+        self._created = not self.path.exists()
         try:
             self.path.mkdir(parents=True, exist_ok=True)
         except OSError as error:
@@ -132,6 +133,12 @@ class RunDirectory:
 
     def __exit__(self, *exc) -> None:
         self.lock.release()
+        if exc[0] is not None and getattr(self, "_created", False):
+            # Refused before it wrote anything: leave no empty directory behind.
+            try:
+                self.path.rmdir()
+            except OSError:
+                pass
 
     def file(self, name: str) -> Path:
         return self.path / name

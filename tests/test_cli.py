@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -131,3 +133,51 @@ def test_sizes_beyond_the_limits_are_one_line_and_write_nothing(field, command, 
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"error: {field}=" in err, err
     assert list(tmp_path.iterdir()) == []
+
+
+# Unusable output locations, each refused before any work in every command that writes one.
+OUTPUTS = [
+    ("file", ["evolve", "--out", "{bad}"]),
+    ("file", ["reoptimize", "{genome}", "--out", "{bad}"]),
+    ("file", ["demo", "--out", "{bad}"]),
+    ("file", ["discover", "{genome}", "--out", "{bad}"]),
+    ("file", ["reassemble", "{genome}", "{genome}", "--out", "{bad}"]),
+    ("file/sub", ["evolve", "--out", "{bad}"]),
+    ("dangling", ["evolve", "--out", "{bad}"]),
+    ("dangling", ["demo", "--out", "{bad}"]),
+    ("dangling", ["reassemble", "{genome}", "{genome}", "--out", "{bad}"]),
+    ("dangling.png", ["draw", "{genome}", "--out", "{bad}"]),
+    ("dangling.json", ["module", "export", "{genome}", "--partition", "worm-halves",
+                       "--module", "0", "--out", "{bad}"]),
+    ("folder.png", ["draw", "{genome}", "--out", "{bad}"]),
+    ("folder.png", ["plot", "{genome}", "--out", "{bad}"]),
+    ("folder.mp4", ["show", "{genome}", "--out", "{bad}"]),
+    ("folder.json", ["module", "export", "{genome}", "--partition", "worm-halves",
+                     "--module", "0", "--out", "{bad}"]),
+    ("readonly/run", ["evolve", "--out", "{bad}"]),
+    ("readonly", ["discover", "{genome}", "--out", "{bad}"]),
+    ("readonly/brain.png", ["draw", "{genome}", "--out", "{bad}"]),
+]
+
+
+@pytest.mark.parametrize("where, command", OUTPUTS)
+def test_unusable_outputs_are_one_line_and_write_nothing(where, command, tmp_path, genome_file,
+                                                          capsys, monkeypatch):
+    (tmp_path / "file").write_text("mine\n")
+    for name in ("dangling", "dangling.png", "dangling.json"):
+        (tmp_path / name).symlink_to(tmp_path / "nowhere")
+    for name in ("folder.png", "folder.mp4", "folder.json", "readonly"):
+        (tmp_path / name).mkdir()
+    if where.startswith("readonly"):
+        # As root a mode of 0o555 does not stop a write; a read-only file system does.
+        import somite._io
+
+        access = os.access
+        monkeypatch.setattr(somite._io.os, "access", lambda path, mode: (
+            Path(path).name != "readonly" and access(path, mode)))
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    args = [a.format(bad=tmp_path / where, genome=genome_file) for a in command]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "error: out=" in err, err
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before

@@ -14,7 +14,7 @@ import io
 import json
 from pathlib import Path
 
-from .._io import write_atomic
+from .._io import check_output_folder, write_atomic
 from ..errors import bad
 from ..modules.reassembly import Take, paper_takes, reassemble, receiver_for
 from ..sim.partition import Partition
@@ -134,10 +134,7 @@ def _validation(args, reassembled, donors, config) -> dict:
 
 
 def _check_out(text: str) -> Path:
-    out = Path(text)
-    if out.exists() and not out.is_dir():
-        raise bad("out", text, "exists and is not a folder")
-    return out
+    return check_output_folder(text)
 
 
 def _donor_partitions(specs, donors) -> tuple[Partition, Partition]:

@@ -32,7 +32,7 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
-from .._io import write_atomic
+from .._io import check_output_folder, write_atomic
 from ..brain.genome import Genome
 from ..errors import bad
 from ..evolution.config import GAConfig
@@ -118,8 +118,7 @@ class RunDirectory:
     def locked(self) -> RunDirectory:
         """Create the folder if need be and take its lock (see :mod:`.lock`); a context
         manager that releases it."""
-        if self.path.exists() and not self.path.is_dir():
-            raise bad("out", str(self.path), "exists and is not a directory")
+        check_output_folder(self.path)
         self._created = not self.path.exists()
         try:
             self.path.mkdir(parents=True, exist_ok=True)

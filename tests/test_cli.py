@@ -22,6 +22,19 @@ def test_simulate_json(capsys):
     assert report["finite"] is True and report["terrain"] == "hilly-1-10-0"
 
 
+def test_simulate_reports_exploit_diagnostics(capsys):
+    """Numbers that show an exploit without a video: orientation, tilt, time on the side,
+    height of the lowest point."""
+    code = main(["simulate", "--shape", "biped", "--terrain", "flat", "--controller",
+                 "sine:freq=2,amp=1,phase=0", "--duration", "8", "--json"])
+    assert code == 0
+    report = json.loads(capsys.readouterr().out)
+    assert 0.3 <= report["min_signed_area_ratio"] < 1.0
+    assert 0.0 <= report["max_tilt_deg"] <= 180.0
+    assert 0.0 <= report["flipped_fraction"] <= 1.0
+    assert report["max_height"] > 0.5  # pulsing in phase, the biped hops
+
+
 @pytest.mark.parametrize(
     "args, field",
     [

@@ -64,16 +64,14 @@ def run_ground(robot, ground, scratch, pos, vel, params):
     lo_x, hi_x, _ = extent(robot.n_points, pos)
     first = segment_near(ground.xs, ground.n, lo_x, 0)
     scratch.contact[:] = True  # stale flags: the kernel must set every one
-    ground_contact(robot.n_points, pos, vel, scratch.contact, scratch.segment, ground.xs,
-                   ground.ys, ground.nx, ground.ny, ground.n, first, hi_x, params)
+    ground_contact(robot, ground, scratch, pos, vel, first, hi_x, params)
 
 
 def run_side(robot, ground, scratch, pos, vel, params):
     lo_x, hi_x, lo_y = extent(robot.n_points, pos)
     first = segment_near(ground.xs, ground.n, lo_x, 0)
     scratch.contact[:] = False
-    side_contact(robot.n_boundary, robot.boundary, robot.inv_mass, pos, vel, scratch.contact,
-                 ground.xs, ground.ys, ground.n, first, hi_x, lo_y, params)
+    side_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params)
 
 
 def coulomb(v_tangent: float, v_normal: float, mu: float) -> float:
@@ -379,7 +377,7 @@ def test_squeezed_voxel_is_restored_to_min_area_without_moving_its_centre():
         assert area_rate(pos, vel, quad) < 0.0
         com, momentum = pos.mean(axis=0), vel.sum(axis=0)
         old = pos.copy()
-        keep_orientation(robot.n_voxels, robot.corners, robot.min_area, robot.inv_mass, pos, vel)
+        keep_orientation(robot, pos, vel)
         area = signed_area(pos, quad)
         # Restored to first order: the rest is second order in the deficit.
         assert robot.min_area - 1e-12 <= area <= robot.min_area + 0.05 * deficit
@@ -395,7 +393,7 @@ def test_growing_squeezed_voxel_keeps_its_velocity():
     vel = np.array([[0.0, 0.0], [0.0, 0.0], [0.1, 1.0], [0.0, 1.0]])
     assert area_rate(pos, vel, robot.corners[0]) > 0.0
     before = vel.copy()
-    keep_orientation(robot.n_voxels, robot.corners, robot.min_area, robot.inv_mass, pos, vel)
+    keep_orientation(robot, pos, vel)
     assert signed_area(pos, robot.corners[0]) >= robot.min_area - 1e-12
     np.testing.assert_array_equal(vel, before)
 
@@ -405,7 +403,7 @@ def test_voxel_above_min_area_is_untouched():
     pos = squeezed(robot, 1.2 * robot.min_area / VOXEL_SIDE)
     vel = np.array([[0.2, 0.5], [0.1, 0.5], [0.3, -1.0], [-0.2, -0.8]])
     start = (pos.copy(), vel.copy())
-    keep_orientation(robot.n_voxels, robot.corners, robot.min_area, robot.inv_mass, pos, vel)
+    keep_orientation(robot, pos, vel)
     np.testing.assert_array_equal(pos, start[0])
     np.testing.assert_array_equal(vel, start[1])
 
@@ -418,7 +416,7 @@ def test_mirrored_voxel_is_moved_towards_positive_area():
     vel = np.zeros((4, 2))
     before = signed_area(pos, quad)
     com = pos.mean(axis=0)
-    keep_orientation(robot.n_voxels, robot.corners, robot.min_area, robot.inv_mass, pos, vel)
+    keep_orientation(robot, pos, vel)
     assert before == pytest.approx(-VOXEL_SIDE**2)
     assert signed_area(pos, quad) > before + 0.5 * VOXEL_SIDE**2
     np.testing.assert_allclose(pos.mean(axis=0), com, atol=1e-14)
@@ -432,7 +430,7 @@ def test_orientation_correction_keeps_the_centre_of_mass_for_unequal_masses():
     vel[:3] = 0.0
     mass = robot.mass[:, None]
     com, momentum = (mass * pos).sum(axis=0), (mass * vel).sum(axis=0)
-    keep_orientation(robot.n_voxels, robot.corners, robot.min_area, robot.inv_mass, pos, vel)
+    keep_orientation(robot, pos, vel)
     assert signed_area(pos, robot.corners[0]) >= robot.min_area - 1e-12
     np.testing.assert_allclose((mass * pos).sum(axis=0), com, atol=1e-13)
     np.testing.assert_allclose((mass * vel).sum(axis=0), momentum, atol=1e-13)
@@ -455,7 +453,7 @@ def test_short_springs_are_pushed_to_their_limit_conserving_momentum():
     short = [s for s, (a, b) in enumerate(robot.ends)
              if np.hypot(*(pos[b] - pos[a])) < robot.min_length[s]]
     assert sorted(sorted(pair) for pair in robot.ends[short].tolist()) == [[0, 1], [3, 4]]
-    enforce_min_lengths(robot.n_springs, robot.ends, robot.min_length, robot.inv_mass, pos, vel)
+    enforce_min_lengths(robot, pos, vel)
     for s in short:
         a, b = sorted(robot.ends[s])  # a on the left, the lighter end
         assert np.hypot(*(pos[b] - pos[a])) == pytest.approx(robot.min_length[s], abs=1e-12)
@@ -478,6 +476,6 @@ def test_springs_above_their_limit_are_untouched():
     pos[:, 0] *= 1.0 - 0.9 * (1.0 - robot.min_length[-1] / VOXEL_SIDE)
     vel = np.ones((6, 2))
     start = (pos.copy(), vel.copy())
-    enforce_min_lengths(robot.n_springs, robot.ends, robot.min_length, robot.inv_mass, pos, vel)
+    enforce_min_lengths(robot, pos, vel)
     np.testing.assert_array_equal(pos, start[0])
     np.testing.assert_array_equal(vel, start[1])

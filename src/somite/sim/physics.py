@@ -31,9 +31,15 @@ def rest_length_factor(actuation: float, contract: float, expand: float) -> floa
 
 
 @njit
-def set_rest_lengths(n_voxels, n_springs, owners, rest0, actuation, params, factor, rest):
-    """Rest length of each spring for the voxels' current actuation (mean over its owners);
-    ``factor`` (V,) is scratch for the voxels' scales."""
+def set_rest_lengths(robot, scratch, actuation, params):
+    """``scratch.rest``: the rest length of each spring for the voxels' current actuation
+    (V,), the mean over its owners."""
+    n_voxels = robot.n_voxels
+    n_springs = robot.n_springs
+    owners = robot.owners
+    rest0 = robot.rest0
+    factor = scratch.factor
+    rest = scratch.rest
     contract = params.contract
     expand = params.expand
     for v in range(n_voxels):
@@ -46,19 +52,34 @@ def set_rest_lengths(n_voxels, n_springs, owners, rest0, actuation, params, fact
 
 
 @njit(inline="always")
-def integrate(n_points, n_springs, ends, strength, rest, min_length, mass, inv_mass, pos, vel,
-              force, dxs, dys, dvx, dvy, fxs, fys, params):
+def integrate(robot, scratch, pos, vel, params):
     """One semi-implicit Euler step of springs, gravity and drag.
 
     ``strength`` scales each spring's stiffness and damping: the number of voxels owning a side
     (1 or 2: parallel springs add up), ``diagonal_stiffness`` for a diagonal.
-    ``force`` must hold zeros on entry and holds zeros on exit; ``dxs`` .. ``fys`` are (S,)
-    scratch, separate arrays so that the compiler knows they do not overlap.
+    ``scratch.force`` must hold zeros on entry and holds zeros on exit; ``scratch.dx`` ..
+    ``scratch.fy`` are (S,) work arrays, separate so that the compiler knows they do not
+    overlap.
     The springs go in three passes (gather, forces, scatter) so that the middle one has no
     branch and no indirect access, and compiles to SIMD code. It also counts the springs
     shorter than their ``min_length``; only when there are any (rarely) does the hard limit
     (:func:`enforce_min_lengths`) run, before the velocities change.
     """
+    n_points = robot.n_points
+    n_springs = robot.n_springs
+    ends = robot.ends
+    strength = robot.strength
+    min_length = robot.min_length
+    mass = robot.mass
+    inv_mass = robot.inv_mass
+    rest = scratch.rest
+    force = scratch.force
+    dxs = scratch.dx
+    dys = scratch.dy
+    dvx = scratch.dvx
+    dvy = scratch.dvy
+    fxs = scratch.fx
+    fys = scratch.fy
     dt = params.dt
     k = params.stiffness
     c = params.damping
@@ -81,7 +102,7 @@ def integrate(n_points, n_springs, ends, strength, rest, min_length, mass, inv_m
         fxs[s] = f * dxs[s]
         fys[s] = f * dys[s]
     if n_short > 0:
-        enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel)
+        enforce_min_lengths(robot, pos, vel)
     for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
@@ -125,12 +146,15 @@ def push_apart(a, b, length, limit, dx, dy, inv_mass, pos, vel):
 
 
 @njit
-def enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel):
+def enforce_min_lengths(robot, pos, vel):
     """Hard limit: no side shorter than ``min_side_ratio`` of its rest length, no diagonal
     than ``min_diagonal_ratio``, so no controller can collapse a voxel (inversion is
     :func:`keep_orientation`'s). Also run after the last substep of each control step, so that
     what is sensed and recorded always obeys the limit."""
-    for s in range(n_springs):
+    ends = robot.ends
+    min_length = robot.min_length
+    inv_mass = robot.inv_mass
+    for s in range(robot.n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
         dx = pos[b, 0] - pos[a, 0]
@@ -202,22 +226,29 @@ def _bounce_off(p, vel, nx, ny, mu):
 
 
 @njit(inline="always")
-def ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n, first, hi_x,
-                   params):
+def ground_contact(robot, ground, scratch, pos, vel, first, hi_x, params):
     """Keep the robot's corners, rounded to discs of radius ``contact_radius``, out of the
     ground; no bounce, Coulomb friction.
 
-    ``segment`` remembers each corner's segment from the previous substep; ``nxs``, ``nys`` are
-    the segments' unit normals. When a corner is further, horizontally, from both ends of its
-    segment than the disc's radius and its depth, no other segment can be nearer, so it goes
-    straight out along the segment's normal (the usual case). Otherwise the two neighbours on
+    ``scratch.segment`` remembers each corner's segment from the previous substep; ``first``
+    is the segment under the robot's leftmost point and ``hi_x`` its right end [m]. When a
+    corner is further, horizontally, from both ends of its segment than the disc's radius and
+    its depth, no other segment can be nearer, so it goes straight out along the segment's
+    normal (the usual case). Otherwise the two neighbours on
     each side are searched for the nearest ground point, so that a disc rolls over a crest and
     steep walls and step risers push sideways, not up.
     """
+    xs = ground.xs
+    ys = ground.ys
+    nxs = ground.nx
+    nys = ground.ny
+    n = ground.n
+    contact = scratch.contact
+    segment = scratch.segment
     mu = params.friction
     radius = params.radius
     clear = highest_ground(xs, ys, n, first, hi_x) + radius + CONTACT_TOLERANCE
-    for p in range(n_points):
+    for p in range(robot.n_points):
         x = pos[p, 0]
         y = pos[p, 1]
         if y >= clear:
@@ -267,8 +298,7 @@ def ground_contact(n_points, pos, vel, contact, segment, xs, ys, nxs, nys, n, fi
 
 
 @njit(inline="always")
-def side_contact(n_boundary, boundary, inv_mass, pos, vel, contact, xs, ys, n, first, hi_x, lo_y,
-                 params):
+def side_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params):
     """Keep terrain vertices out of the robot's outer sides; Coulomb friction, no bounce.
 
     Together with :func:`ground_contact` (corners against terrain segments) this makes the
@@ -280,6 +310,12 @@ def side_contact(n_boundary, boundary, inv_mass, pos, vel, contact, xs, ys, n, f
     in proportion to how much it moves that point and to its inverse mass), so that they
     exert no torque about the contact point.
     """
+    boundary = robot.boundary
+    inv_mass = robot.inv_mass
+    contact = scratch.contact
+    xs = ground.xs
+    ys = ground.ys
+    n = ground.n
     limit = params.peak_depth
     mu = params.friction
     radius = params.radius
@@ -294,7 +330,7 @@ def side_contact(n_boundary, boundary, inv_mass, pos, vel, contact, xs, ys, n, f
         side = -1
         depth = 0.0
         lam = 0.0
-        for q in range(n_boundary):
+        for q in range(robot.n_boundary):
             a = boundary[q, 0]
             b = boundary[q, 1]
             # A vertex that can count for this side lies in its bounding box grown by reach:
@@ -360,18 +396,24 @@ def side_contact(n_boundary, boundary, inv_mass, pos, vel, contact, xs, ys, n, f
 
 
 @njit(inline="always")
-def keep_orientation(n_voxels, corners, min_area, inv_mass, pos, vel):
+def voxel_corners(corners, v):
+    """Point indices of voxel ``v``'s corners: SW, SE, NE, NW (counter-clockwise)."""
+    return corners[v, 0], corners[v, 1], corners[v, 2], corners[v, 3]
+
+
+@njit(inline="always")
+def keep_orientation(robot, pos, vel):
     """No voxel turns inside out: each voxel's signed area stays at least ``min_area``.
 
     Length limits cannot do it (a mirrored voxel has the same side and diagonal lengths).
     Where a voxel is smaller, its corners move along the area's gradient, weighted by inverse
-    mass, to restore ``min_area``, and the corners' shrinking rate along it is removed.
+    mass, to restore ``robot.min_area``, and the corners' shrinking rate along it is removed.
     """
-    for v in range(n_voxels):
-        sw = corners[v, 0]
-        se = corners[v, 1]
-        ne = corners[v, 2]
-        nw = corners[v, 3]
+    corners = robot.corners
+    min_area = robot.min_area
+    inv_mass = robot.inv_mass
+    for v in range(robot.n_voxels):
+        sw, se, ne, nw = voxel_corners(corners, v)
         # Twice the signed area: the cross product of the diagonals.
         d1x = pos[ne, 0] - pos[sw, 0]
         d1y = pos[ne, 1] - pos[sw, 1]
@@ -412,15 +454,11 @@ def keep_orientation(n_voxels, corners, min_area, inv_mass, pos, vel):
 def substep(robot, ground, scratch, pos, vel, params):
     """Advance one robot by one physics substep: springs, gravity and drag; the voxels'
     length and orientation limits; contact of the outline with the terrain."""
-    integrate(robot.n_points, robot.n_springs, robot.ends, robot.strength, scratch.rest,
-              robot.min_length, robot.mass, robot.inv_mass, pos, vel, scratch.force,
-              scratch.dx, scratch.dy, scratch.dvx, scratch.dvy, scratch.fx, scratch.fy, params)
-    keep_orientation(robot.n_voxels, robot.corners, robot.min_area, robot.inv_mass, pos, vel)
+    integrate(robot, scratch, pos, vel, params)
+    keep_orientation(robot, pos, vel)
     lo_x, hi_x, lo_y = extent(robot.n_points, pos)
     segment = scratch.segment
     first = segment_near(ground.xs, ground.n, lo_x - params.radius, segment[robot.n_points])
     segment[robot.n_points] = first
-    ground_contact(robot.n_points, pos, vel, scratch.contact, segment, ground.xs, ground.ys,
-                   ground.nx, ground.ny, ground.n, first, hi_x + params.radius, params)
-    side_contact(robot.n_boundary, robot.boundary, robot.inv_mass, pos, vel, scratch.contact,
-                 ground.xs, ground.ys, ground.n, first, hi_x, lo_y, params)
+    ground_contact(robot, ground, scratch, pos, vel, first, hi_x + params.radius, params)
+    side_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params)

@@ -21,7 +21,7 @@ import numpy as np
 from .._jit import njit
 from .._math import tanh
 from .config import SimConfig
-from .physics import segment_near
+from .physics import segment_near, voxel_corners
 from .system import R_AREA, R_LIDAR0, R_TOUCH, R_VX, R_VY
 from .terrain import JavaRandom
 
@@ -119,10 +119,7 @@ def voxel_state(n_voxels, corners, pos, vel, angle, out):
             area += pos[p, 0] * pos[q, 1] - pos[q, 0] * pos[p, 1]
         out[v, 5] = 0.0
         if angle != NO_ANGLE:
-            sw = corners[v, 0]
-            se = corners[v, 1]
-            ne = corners[v, 2]
-            nw = corners[v, 3]
+            sw, se, ne, nw = voxel_corners(corners, v)
             bx = pos[se, 0] - pos[sw, 0]
             by = pos[se, 1] - pos[sw, 1]
             tx = pos[ne, 0] - pos[nw, 0]

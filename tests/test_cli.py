@@ -194,3 +194,37 @@ def test_unusable_outputs_are_one_line_and_write_nothing(where, command, tmp_pat
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "error: out=" in err, err
     assert sorted(p.name for p in tmp_path.rglob("*")) == before
+
+
+CORRUPT = {
+    "fifo": None,
+    "folder": None,
+    "latin-1": "{\"é\": 1}".encode("latin-1"),
+    "deep": b"[" * 200_000 + b"]" * 200_000,
+    "long integer": b'{"nodes": [{"id": ' + b"9" * 5000 + b"}]}",
+    "not json": b"\x00\x01",
+}
+READERS = {
+    "genome": ["evaluate", "{file}", "--validation", "1", "--duration", "1"],
+    "partition": ["draw", "{genome}", "--partition", "{file}", "--out", "{out}/b.png"],
+    "config": ["evolve", "--config", "{file}", "--out", "{out}/run"],
+}
+
+
+@pytest.mark.parametrize("kind", CORRUPT)
+@pytest.mark.parametrize("field", READERS)
+def test_unreadable_input_files_are_one_line(kind, field, tmp_path, genome_file, capsys):
+    path = tmp_path / "input"
+    if kind == "fifo":
+        os.mkfifo(path)  # reading it would wait forever
+    elif kind == "folder":
+        path.mkdir()
+    else:
+        path.write_bytes(CORRUPT[kind])
+    (tmp_path / "out").mkdir()
+    args = [a.format(file=path, genome=genome_file, out=tmp_path / "out")
+            for a in READERS[field]]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"error: {field}=" in err, err
+    assert list((tmp_path / "out").iterdir()) == []

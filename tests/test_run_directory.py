@@ -226,3 +226,16 @@ def refused_force(run: Path, capsys, extra: list[str], message: str) -> None:
 
 def files_and_folders(run: Path) -> dict[str, bytes | None]:
     return {p.name: p.read_bytes() if p.is_file() else None for p in run.iterdir()}
+
+
+@pytest.mark.parametrize("text", ["[]", '{"duration": "long"}', '{"duration": 1e999}',
+                                  "[" * 100_000, '"\\ud800"', "{"])
+def test_damaged_config_json_is_refused_on_resume(tmp_path, capsys, text):
+    run = tmp_path / "run"
+    assert main([*SHORT, "--out", str(run)]) == 0
+    (run / "config.json").write_text(text)
+    before = files(run)
+    assert main(["evolve", "--out", str(run), "--resume", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and ("config" in err or "duration" in err), err
+    assert files(run) == before

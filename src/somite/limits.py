@@ -28,3 +28,6 @@ def at_most(field: str, value, limit) -> None:
     """Refuse ``value`` above ``limit`` (the documented maximum of ``field``)."""
     if value > limit:
         raise bad(field, value, f"must be at most {limit:g} (somite.limits)")
+MAX_INPUT_BYTES = 256 * 2**20
+"""A file somite reads (genome, module, partition, checkpoint, configuration): 256 MiB; a
+checkpoint of the paper's population is well under 1 MiB."""

@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._io import write_atomic
+from .._io import read_text, write_atomic
 from ..errors import bad
 from ..sim.body import Body
 from .kinds import ACTUATOR, HIDDEN, KIND_CODE, KIND_DTYPE, NODE_KINDS, SENSOR
@@ -221,11 +221,7 @@ class Genome:
     @classmethod
     def load(cls, path: str | os.PathLike) -> Genome:
         """Read a genome file written by :meth:`save`."""
-        try:
-            text = Path(path).read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as error:
-            raise bad("genome", str(path), f"cannot read the file ({error})") from None
-        return cls.from_dict(_parse_json(text, "genome", str(path)))
+        return cls.from_dict(_parse_json(read_text(path, "genome"), "genome", str(path)))
 
 
 def next_id(genome: Genome) -> int:
@@ -439,7 +435,10 @@ def _node_dict(node: Node) -> dict:
 def _parse_json(text: str, field: str, where: str | None = None):
     try:
         return json.loads(text)
-    except (json.JSONDecodeError, TypeError) as error:
+    except RecursionError:
+        raise bad(field, where if where is not None else str(text)[:40],
+                  "not valid JSON: nested too deeply") from None
+    except (ValueError, TypeError) as error:  # ValueError: an integer of thousands of digits
         detail = getattr(error, "msg", str(error))
         position = ""
         if hasattr(error, "lineno"):

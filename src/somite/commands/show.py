@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
+from .._io import read_json
 from ..errors import bad
 from ..limits import MAX_FRAMES, at_most
 from ..sim.config import CONTROL_HZ
@@ -86,9 +86,6 @@ def _run_config(target: str) -> dict:
     path = Path(target) / "config.json"
     if not path.is_file():
         return {}
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise bad("config", str(path), f"cannot read it ({error})") from None
+    data = read_json(path, "config")
     return data if isinstance(data, dict) else {}
 

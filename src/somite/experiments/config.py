@@ -13,6 +13,7 @@ import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+from .._io import read_text
 from ..errors import bad
 from ..limits import MAX_EVALUATIONS, MAX_GENERATIONS, at_most
 from ..evolution.config import GAConfig, check_types
@@ -124,9 +125,7 @@ def load_toml(path: str | Path) -> dict:
     """The options of a TOML file, checked for unknown keys (types are checked on build)."""
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise bad("config", str(path), "no such file") from None
+        data = tomllib.loads(read_text(path, "config"))
     except tomllib.TOMLDecodeError as error:
         raise bad("config", str(path), f"not valid TOML ({error})") from None
     known = option_names()

@@ -32,7 +32,7 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
-from .._io import check_output_folder, write_atomic
+from .._io import check_output_folder, read_json, read_text, write_atomic
 from ..brain.genome import Genome
 from ..errors import bad
 from ..evolution.config import GAConfig
@@ -78,8 +78,9 @@ def load_checkpoint(path: Path, config: RunConfig, logged: int) -> GraphEA:
     does not reach is a one-line error."""
     if not path.is_file():
         raise bad("resume", str(path.parent), "no checkpoint.json in this run directory")
+    text = read_text(path, "checkpoint")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(text)
     except (ValueError, RecursionError) as error:
         raise bad("checkpoint", str(path), f"damaged checkpoint ({error})") from None
     if not isinstance(data, dict) or data.get("format") != CHECKPOINT_FORMAT:
@@ -237,10 +238,10 @@ class RunDirectory:
         path = self.file("config.json")
         if not path.is_file():
             raise bad("resume", str(self.path), "no config.json in this run directory")
-        try:
-            return resolve(json.loads(path.read_text()))
-        except json.JSONDecodeError as error:
-            raise bad("config", str(path), f"not valid JSON ({error})") from None
+        data = read_json(path, "config")
+        if not isinstance(data, dict):
+            raise bad("config", str(path), f"expected a JSON object, not {type(data).__name__}")
+        return resolve(data)
 
     def cut_back(self, generation: int) -> None:
         """Drop log rows and best genomes written after ``generation`` (and torn lines)."""

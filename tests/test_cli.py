@@ -228,3 +228,55 @@ def test_unreadable_input_files_are_one_line(kind, field, tmp_path, genome_file,
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"error: {field}=" in err, err
     assert list((tmp_path / "out").iterdir()) == []
+
+
+def _genome_with(path: Path, genome_file: Path, change) -> Path:
+    data = json.loads(genome_file.read_text())
+    change(data)
+    path.write_text(json.dumps(data))
+    return path
+
+
+def _weights(*values):
+    def change(data):
+        for edge, value in zip(data["edges"], values):
+            edge["weight"] = value
+    return change
+
+
+@pytest.mark.parametrize("field, change, command", [
+    ("edges[0].weight", _weights(1e308, -1e308), ["discover", "{g}", "--out", "{out}"]),
+    ("edges[0].weight", _weights(-1e308, 1e308), ["module", "export", "{g}", "--partition",
+                                                  "worm-halves", "--module", "back",
+                                                  "--out", "{out}/m.json"]),
+    ("edges[0].weight", _weights(1e308, 1e308), ["reassemble", "{g}", "{g}", "--out", "{out}",
+                                                 "--validation", "0"]),
+    ("edges[0].weight", _weights(10**400), ["evaluate", "{g}", "--duration", "1"]),
+    ("body.sensors", lambda d: d["body"].update(sensors=5), ["evaluate", "{g}"]),
+    ("body.sensors", lambda d: d["body"].update(sensors={"a": 1}), ["evaluate", "{g}"]),
+])
+def test_extreme_or_mistyped_genomes_are_one_line(field, change, command, tmp_path, genome_file,
+                                                  capsys):
+    genome = _genome_with(tmp_path / "g.json", genome_file, change)
+    (tmp_path / "out").mkdir()
+    assert main([a.format(g=genome, out=tmp_path / "out") for a in command]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"error: {field}=" in err, err
+    assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_weights_large_but_within_the_limit_work(tmp_path, genome_file):
+    genome = _genome_with(tmp_path / "g.json", genome_file, _weights(1e100, -1e100, 1e100))
+    assert main(["discover", str(genome), "--out", str(tmp_path / "d")]) == 0
+    assert main(["module", "export", str(genome), "--partition", "worm-halves", "--module",
+                 "back", "--out", str(tmp_path / "back.json")]) == 0
+
+
+def test_toml_seed_and_empty_shape_lists_are_refused(tmp_path, capsys):
+    toml = tmp_path / "seed.toml"
+    toml.write_text("seed = 4294967296\n")
+    assert main(["evolve", "--config", str(toml), "--out", str(tmp_path / "run")]) == 2
+    assert "seed=4294967296: must be in [0, 2**32)" in capsys.readouterr().err
+    assert main(["bench", "--shapes", ","]) == 2
+    assert "shapes=','" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()

@@ -29,6 +29,7 @@ import numpy as np
 
 from .._io import read_text, write_atomic
 from ..errors import bad
+from ..limits import MAX_WEIGHT
 from ..sim.body import Body
 from .kinds import ACTUATOR, HIDDEN, KIND_CODE, KIND_DTYPE, NODE_KINDS, SENSOR
 
@@ -320,7 +321,7 @@ def _fast_edges(edges, position: dict, kind: np.ndarray):
         return None
     u = [position.get(i) for i in srcs]
     v = [position.get(i) for i in dsts]
-    if None in u or None in v or not all(map(math.isfinite, params)):
+    if None in u or None in v or not all(abs(p) <= MAX_WEIGHT for p in params):
         return None
     if len(set(zip(u, v))) != len(u):
         return None
@@ -414,8 +415,10 @@ def _check_edges(edges, position: dict, kinds: list):
             raise bad(f"edges[{i}]", (edge.src, edge.dst), "duplicate edge")
         for name in ("weight", "bias"):
             value = getattr(edge, name)
-            if not _is_real(value) or not math.isfinite(value):
-                raise bad(f"edges[{i}].{name}", value, "must be a finite number")
+            # Compared, not converted: an integer of 400 digits overflows a float.
+            if not _is_real(value) or not abs(value) <= MAX_WEIGHT:
+                raise bad(f"edges[{i}].{name}", value,
+                          f"must be a number of magnitude at most {MAX_WEIGHT:g} (somite.limits)")
         pairs.add((u, v))
         src.append(u)
         dst.append(v)

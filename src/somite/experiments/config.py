@@ -80,6 +80,8 @@ class RunConfig:
                           ("checkpoint_every", 1)):
             if getattr(self, name) < low:
                 raise bad(name, getattr(self, name), f"must be at least {low}")
+        if not 0 <= self.seed < 2**32:
+            raise bad("seed", self.seed, "must be in [0, 2**32)")
         at_most("generations", self.generations, MAX_GENERATIONS)
         at_most("evaluations", self.evaluations, MAX_EVALUATIONS)
         parse_distribution(self.terrain)

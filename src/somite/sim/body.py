@@ -258,6 +258,8 @@ class Body:
             raise bad("body", data, "expected an object with 'shape' and 'sensors'")
         shape = Shape.parse(data["shape"])
         sensors = data.get("sensors", "paper")
+        if not isinstance(sensors, (str, list)):
+            raise bad("body.sensors", sensors, "expected a preset name or a list of {x, y, kinds}")
         if isinstance(sensors, list):
             try:
                 sensors = {(int(s["x"]), int(s["y"])): list(s["kinds"]) for s in sensors}

@@ -239,3 +239,11 @@ def test_damaged_config_json_is_refused_on_resume(tmp_path, capsys, text):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and ("config" in err or "duration" in err), err
     assert files(run) == before
+
+
+def test_an_error_after_the_progress_bar_started_is_the_only_output(tmp_path, capsys):
+    assert main(["evolve", "--shape", "worm", "--modules", "biped-legs", "--omega", "10",
+                 "--generations", "1", "--out", str(tmp_path / "run")]) == 2
+    out, err = capsys.readouterr()
+    assert err.count("\n") == 1 and "generation" not in out + err, (out, err)
+    assert not (tmp_path / "run").exists()

@@ -142,4 +142,7 @@ class progress_bar:
 
     def __exit__(self, *exc) -> None:
         if self.bar is not None:
+            if exc[0] is not None:
+                # Erase the bar, so that an error is the only line left on the terminal.
+                self.bar.live.transient = True
             self.bar.stop()

@@ -270,11 +270,14 @@ def _fast_index(nodes, edges, table: BodyTable):
     xs = [n.x for n in nodes]
     ys = [n.y for n in nodes]
     slots = [n.slot for n in nodes]
-    codes = [KIND_CODE.get(n.kind) for n in nodes]
-    voxels = [table.voxel_index.get(xy) for xy in zip(xs, ys)]
-    # Exact types: bools and floats hash like ints and would slip through the lookups.
+    # Exact types, before any lookup: bools and floats hash like ints and would slip through,
+    # and a list or dict cannot be looked up at all.
     if not {*map(type, ids), *map(type, xs), *map(type, ys)} <= {int}:
         return None
+    if not {type(n.kind) for n in nodes} <= {str}:
+        return None
+    codes = [KIND_CODE.get(n.kind) for n in nodes]
+    voxels = [table.voxel_index.get(xy) for xy in zip(xs, ys)]
     if None in codes or None in voxels or not set(map(type, slots)) <= {int, _NONE}:
         return None
     position = dict(zip(ids, range(len(ids))))
@@ -282,7 +285,11 @@ def _fast_index(nodes, edges, table: BodyTable):
         return None
     kind = np.array(codes, dtype=KIND_DTYPE)
     voxel = np.array(voxels, dtype=np.int64)
-    slot = np.array([-1 if s is None else s for s in slots], dtype=np.int64)
+    try:
+        slot = np.array([-1 if s is None else s for s in slots], dtype=np.int64)
+        np.array(ids, dtype=np.int64)
+    except OverflowError:  # an integer of many digits: the item-by-item check names it
+        return None
     if not _nodes_cover_body(kind, voxel, slot, [s is None for s in slots], table):
         return None
     edge_columns = _fast_edges(edges, position, kind)
@@ -341,8 +348,8 @@ def _check_nodes(nodes, table: BodyTable):
     for i, node in enumerate(nodes):
         if not isinstance(node, Node):
             raise bad(f"nodes[{i}]", node, "expected a Node")
-        if not _is_int(node.id) or node.id < 0:
-            raise bad(f"nodes[{i}].id", node.id, "node ids must be integers >= 0")
+        if not _is_int(node.id) or not 0 <= node.id < 2**63:
+            raise bad(f"nodes[{i}].id", node.id, "node ids must be integers in [0, 2**63)")
         if node.id in position:
             raise bad(f"nodes[{i}].id", node.id, "node ids must be unique")
         try:

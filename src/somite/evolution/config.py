@@ -7,6 +7,7 @@ What a *run* needs on top (body, seed, generations, terrains, episodes, checkpoi
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass, field, fields, replace
 
 from ..errors import bad
@@ -31,7 +32,8 @@ def check_types(cls, values: dict) -> dict:
         if not isinstance(value, expected) or (types[name] != "bool" and isinstance(value, bool)):
             raise bad(name, value, f"must be of type {types[name]}")
         if types[name] == "float":
-            if not math.isfinite(value):
+            # Compared before converted: an integer of 400 digits overflows a float.
+            if not (-sys.float_info.max <= value <= sys.float_info.max):
                 raise bad(name, value, "must be a finite number")
             checked[name] = float(value)
     return checked

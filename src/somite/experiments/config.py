@@ -140,7 +140,7 @@ def load_toml(path: str | Path) -> dict:
 def resolve(options: dict) -> RunConfig:
     """Build the configuration: preset defaults, then ``options`` (TOML and CLI merged, flat)."""
     name = options.get("preset", "paper")
-    if name not in RUN_PRESETS:
+    if not isinstance(name, str) or name not in RUN_PRESETS:
         raise bad("preset", name, f"use one of {list(RUN_PRESETS)}")
     merged = {**RUN_PRESETS[name], **options}
     known = option_names()

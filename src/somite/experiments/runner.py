@@ -97,7 +97,8 @@ def load_checkpoint(path: Path, config: RunConfig, logged: int) -> GraphEA:
         raise bad("checkpoint.generation", generation, f"log.csv holds {held}")
     try:
         ea = GraphEA.restore(data, config.ga)
-    except (ValueError, KeyError, TypeError, AttributeError, RecursionError) as error:
+    except (ValueError, KeyError, TypeError, AttributeError, IndexError, OverflowError,
+            RecursionError) as error:
         raise bad("checkpoint", str(path), f"damaged checkpoint ({error})") from None
     if data.get("run") != run_fingerprint(config, ea.body):
         raise bad("checkpoint", str(path), "belongs to another run (its configuration or body "

@@ -184,6 +184,9 @@ def module_from_dict(data, name: str, path: str | None = None) -> LibraryModule:
     for x, y in voxels:
         if type(x) is not int or type(y) is not int:
             raise bad("voxels", (x, y), "voxel coordinates are integers")
+    for i, node in enumerate(nodes):
+        if type(node.x) is not int or type(node.y) is not int:
+            raise bad(f"nodes[{i}]", (node.x, node.y), "node coordinates are integers")
     module = Module(str(data.get("label", name)), tuple(voxels), tuple(sensors), nodes, edges)
     return LibraryModule(name, module, _provenance_from(data.get("provenance", {})), path)
 

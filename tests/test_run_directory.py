@@ -103,41 +103,70 @@ def test_lock_in_one_process(tmp_path):
 
 
 KILLER = """
-import os, signal, sys
+import builtins, os, signal, sys
 from somite.cli import main
-kill_at, count, real = int(sys.argv[1]), [0], os.replace
-def replace(source, target):
+import somite.experiments.runner as runner
+mode, kill_at, count = sys.argv[1], int(sys.argv[2]), [0]
+def due():
     count[0] += 1
-    if count[0] == kill_at:  # the temporary file is written, the rename not done
+    return count[0] == kill_at
+real_replace, real_open = os.replace, builtins.open
+def replace(source, target):
+    if due():  # the temporary file is written, the rename not done
         os.kill(os.getpid(), signal.SIGKILL)
-    real(source, target)
-os.replace = replace
-sys.exit(main(sys.argv[2:]))
+    real_replace(source, target)
+class Torn:
+    def __init__(self, handle):
+        self.handle = handle
+    def __enter__(self):
+        return self
+    def __exit__(self, *exc):
+        self.handle.close()
+    def write(self, text):
+        if due():  # half a line written, then death
+            self.handle.write(text[: len(text) // 2])
+            self.handle.flush()
+            os.kill(os.getpid(), signal.SIGKILL)
+        return self.handle.write(text)
+def append_open(path, mode="r", *args, **kwargs):
+    handle = real_open(path, mode, *args, **kwargs)
+    return Torn(handle) if "a" in mode else handle
+if mode == "replace":
+    os.replace = replace
+else:
+    runner.open = append_open  # the run's appends to log.csv and bests.jsonl
+sys.exit(main(sys.argv[3:]))
 """
 
 SHORT = ["evolve", "--shape", "worm", "--population", "6", "--generations", "3",
          "--duration", "2", "--seed", "2", "--checkpoint-every", "2", "--quiet"]
 
 
-def test_a_kill_at_any_file_write_resumes_to_the_same_run(tmp_path):
-    """Killed at each atomic write of a run in turn (the first: config.json, before any
-    checkpoint), ``--resume`` ends in the uninterrupted run's files, temporary files gone."""
+@pytest.mark.parametrize("mode", ["replace", "append"])
+def test_a_kill_at_any_file_write_resumes_to_the_same_run(tmp_path, mode):
+    """Killed at each write of a run in turn: each atomic write (the first: the manifest,
+    before any checkpoint) between its temporary file and its rename, or each append to
+    log.csv and bests.jsonl half-way through its line. ``--resume`` ends in the uninterrupted
+    run's files, temporary files gone."""
     whole = tmp_path / "whole"
     assert main([*SHORT, "--out", str(whole)]) == 0
     kill_at = 0
     while True:
         kill_at += 1
         run = tmp_path / f"killed-{kill_at}"
-        child = subprocess.run([sys.executable, "-c", KILLER, str(kill_at), *SHORT, "--out",
-                                str(run)])
+        child = subprocess.run([sys.executable, "-c", KILLER, mode, str(kill_at), *SHORT,
+                                "--out", str(run)])
         if child.returncode == 0:
             break
         assert child.returncode == -signal.SIGKILL
-        assert any(p.name.endswith(".tmp") for p in run.iterdir())
+        if mode == "replace":
+            assert any(p.name.endswith(".tmp") for p in run.iterdir())
         assert main([*SHORT, "--out", str(run), "--resume"]) == 0, kill_at
         assert_same_run(run, whole)
         assert sorted(p.name for p in run.iterdir()) == sorted(p.name for p in whole.iterdir())
-    assert kill_at > 6  # config, log, bests, then best.json and checkpoint at 0, 2 and 3
+    # replace: manifest, config, log, bests, then best.json and checkpoint at 0, 2 and 3;
+    # append: a log row and a best genome for each of generations 0 to 3.
+    assert kill_at == (11 if mode == "replace" else 9)
 
 
 def test_a_kill_as_soon_as_the_directory_exists_resumes(tmp_path):
@@ -247,3 +276,18 @@ def test_an_error_after_the_progress_bar_started_is_the_only_output(tmp_path, ca
     out, err = capsys.readouterr()
     assert err.count("\n") == 1 and "generation" not in out + err, (out, err)
     assert not (tmp_path / "run").exists()
+
+
+def test_a_killed_reoptimize_force_leaves_no_old_transfer_csv(tmp_path):
+    run = tmp_path / "run"
+    assert main([*SHORT, "--out", str(run)]) == 0
+    args = ["reoptimize", str(run), "--generations", "1", "--population", "4", "--duration",
+            "1", "--validation", "1", "--quiet", "--out", str(tmp_path / "re")]
+    assert main(args) == 0
+    assert (tmp_path / "re" / "transfer.csv").is_file()
+    assert "transfer.csv" in json.loads((tmp_path / "re" / "manifest.json").read_text())["files"]
+    child = subprocess.run([sys.executable, "-c", KILLER, "replace", "1", *args, "--force"])
+    assert child.returncode == -signal.SIGKILL
+    assert not (tmp_path / "re" / "transfer.csv").exists()
+    assert main([*args, "--resume"]) == 0
+    assert (tmp_path / "re" / "transfer.csv").is_file()

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -101,3 +103,180 @@ def test_evolve_records_the_shared_defaults(tmp_path):
     saved = json.loads((out / "config.json").read_text())
     shared = {k: v for k, v in DEFAULTS.items() if k != "validation"}
     assert {k: saved[k] for k in shared} == shared
+
+
+@pytest.fixture(scope="module")
+def genome_file(tmp_path_factory):
+    import numpy as np
+
+    from somite.evolution.operators import initial_genome
+    from somite.sim.body import Body
+
+    path = tmp_path_factory.mktemp("genome") / "g.json"
+    initial_genome(Body.build("worm"), np.random.default_rng(0)).save(path)
+    return path
+
+
+# Sizes past somite.limits, each refused before any work, in every command that takes one.
+BEYOND = [
+    ("duration", ["simulate", "--duration", "1e308"]),
+    ("duration", ["simulate", "--duration", "1e-9"]),
+    ("duration", ["bench", "--duration", "1e6"]),
+    ("duration", ["evolve", "--out", "{out}", "--duration", "601"]),
+    ("duration", ["evaluate", "{genome}", "--duration", "1e308"]),
+    ("duration", ["show", "{genome}", "--out", "{out}.mp4", "--duration", "1e308"]),
+    ("population", ["evolve", "--out", "{out}", "--population", "100000000"]),
+    ("generations", ["evolve", "--out", "{out}", "--generations", "10000000"]),
+    ("evaluations", ["evolve", "--out", "{out}", "--evaluations", "5000"]),
+    ("shape", ["evolve", "--out", "{out}", "--shape", "1000x1000"]),
+    ("shape", ["evolve", "--out", "{out}", "--shape", "1" * 40]),
+    ("shape", ["simulate", "--shape", "100000000000x1"]),
+    ("validation", ["evaluate", "{genome}", "--validation", "100000"]),
+    ("validation", ["reoptimize", "{genome}", "--out", "{out}", "--validation", "100000"]),
+    ("frames", ["show", "{genome}", "--out", "{out}.png", "--frames", "100000"]),
+    ("fps", ["show", "{genome}", "--out", "{out}.mp4", "--fps", "0.001"]),
+]
+
+
+@pytest.mark.parametrize("field, command", BEYOND)
+def test_sizes_beyond_the_limits_are_one_line_and_write_nothing(field, command, tmp_path,
+                                                                  genome_file, capsys):
+    args = [a.format(out=tmp_path / "out", genome=genome_file) for a in command]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"error: {field}=" in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+# Unusable output locations, each refused before any work in every command that writes one.
+OUTPUTS = [
+    ("file", ["evolve", "--out", "{bad}"]),
+    ("file", ["reoptimize", "{genome}", "--out", "{bad}"]),
+    ("file", ["demo", "--out", "{bad}"]),
+    ("file", ["discover", "{genome}", "--out", "{bad}"]),
+    ("file", ["reassemble", "{genome}", "{genome}", "--out", "{bad}"]),
+    ("file/sub", ["evolve", "--out", "{bad}"]),
+    ("dangling", ["evolve", "--out", "{bad}"]),
+    ("dangling", ["demo", "--out", "{bad}"]),
+    ("dangling", ["reassemble", "{genome}", "{genome}", "--out", "{bad}"]),
+    ("dangling.png", ["draw", "{genome}", "--out", "{bad}"]),
+    ("dangling.json", ["module", "export", "{genome}", "--partition", "worm-halves",
+                       "--module", "0", "--out", "{bad}"]),
+    ("folder.png", ["draw", "{genome}", "--out", "{bad}"]),
+    ("folder.png", ["plot", "{genome}", "--out", "{bad}"]),
+    ("folder.mp4", ["show", "{genome}", "--out", "{bad}"]),
+    ("folder.json", ["module", "export", "{genome}", "--partition", "worm-halves",
+                     "--module", "0", "--out", "{bad}"]),
+    ("readonly/run", ["evolve", "--out", "{bad}"]),
+    ("readonly", ["discover", "{genome}", "--out", "{bad}"]),
+    ("readonly/brain.png", ["draw", "{genome}", "--out", "{bad}"]),
+]
+
+
+@pytest.mark.parametrize("where, command", OUTPUTS)
+def test_unusable_outputs_are_one_line_and_write_nothing(where, command, tmp_path, genome_file,
+                                                          capsys, monkeypatch):
+    (tmp_path / "file").write_text("mine\n")
+    for name in ("dangling", "dangling.png", "dangling.json"):
+        (tmp_path / name).symlink_to(tmp_path / "nowhere")
+    for name in ("folder.png", "folder.mp4", "folder.json", "readonly"):
+        (tmp_path / name).mkdir()
+    if where.startswith("readonly"):
+        # As root a mode of 0o555 does not stop a write; a read-only file system does.
+        import somite._io
+
+        access = os.access
+        monkeypatch.setattr(somite._io.os, "access", lambda path, mode: (
+            Path(path).name != "readonly" and access(path, mode)))
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    args = [a.format(bad=tmp_path / where, genome=genome_file) for a in command]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "error: out=" in err, err
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before
+
+
+CORRUPT = {
+    "fifo": None,
+    "folder": None,
+    "latin-1": "{\"é\": 1}".encode("latin-1"),
+    "deep": b"[" * 200_000 + b"]" * 200_000,
+    "long integer": b'{"nodes": [{"id": ' + b"9" * 5000 + b"}]}",
+    "not json": b"\x00\x01",
+}
+READERS = {
+    "genome": ["evaluate", "{file}", "--validation", "1", "--duration", "1"],
+    "partition": ["draw", "{genome}", "--partition", "{file}", "--out", "{out}/b.png"],
+    "config": ["evolve", "--config", "{file}", "--out", "{out}/run"],
+}
+
+
+@pytest.mark.parametrize("kind", CORRUPT)
+@pytest.mark.parametrize("field", READERS)
+def test_unreadable_input_files_are_one_line(kind, field, tmp_path, genome_file, capsys):
+    path = tmp_path / "input"
+    if kind == "fifo":
+        os.mkfifo(path)  # reading it would wait forever
+    elif kind == "folder":
+        path.mkdir()
+    else:
+        path.write_bytes(CORRUPT[kind])
+    (tmp_path / "out").mkdir()
+    args = [a.format(file=path, genome=genome_file, out=tmp_path / "out")
+            for a in READERS[field]]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"error: {field}=" in err, err
+    assert list((tmp_path / "out").iterdir()) == []
+
+
+def _genome_with(path: Path, genome_file: Path, change) -> Path:
+    data = json.loads(genome_file.read_text())
+    change(data)
+    path.write_text(json.dumps(data))
+    return path
+
+
+def _weights(*values):
+    def change(data):
+        for edge, value in zip(data["edges"], values):
+            edge["weight"] = value
+    return change
+
+
+@pytest.mark.parametrize("field, change, command", [
+    ("edges[0].weight", _weights(1e308, -1e308), ["discover", "{g}", "--out", "{out}"]),
+    ("edges[0].weight", _weights(-1e308, 1e308), ["module", "export", "{g}", "--partition",
+                                                  "worm-halves", "--module", "back",
+                                                  "--out", "{out}/m.json"]),
+    ("edges[0].weight", _weights(1e308, 1e308), ["reassemble", "{g}", "{g}", "--out", "{out}",
+                                                 "--validation", "0"]),
+    ("edges[0].weight", _weights(10**400), ["evaluate", "{g}", "--duration", "1"]),
+    ("body.sensors", lambda d: d["body"].update(sensors=5), ["evaluate", "{g}"]),
+    ("body.sensors", lambda d: d["body"].update(sensors={"a": 1}), ["evaluate", "{g}"]),
+])
+def test_extreme_or_mistyped_genomes_are_one_line(field, change, command, tmp_path, genome_file,
+                                                  capsys):
+    genome = _genome_with(tmp_path / "g.json", genome_file, change)
+    (tmp_path / "out").mkdir()
+    assert main([a.format(g=genome, out=tmp_path / "out") for a in command]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"error: {field}=" in err, err
+    assert list((tmp_path / "out").iterdir()) == []
+
+
+def test_weights_large_but_within_the_limit_work(tmp_path, genome_file):
+    genome = _genome_with(tmp_path / "g.json", genome_file, _weights(1e100, -1e100, 1e100))
+    assert main(["discover", str(genome), "--out", str(tmp_path / "d")]) == 0
+    assert main(["module", "export", str(genome), "--partition", "worm-halves", "--module",
+                 "back", "--out", str(tmp_path / "back.json")]) == 0
+
+
+def test_toml_seed_and_empty_shape_lists_are_refused(tmp_path, capsys):
+    toml = tmp_path / "seed.toml"
+    toml.write_text("seed = 4294967296\n")
+    assert main(["evolve", "--config", str(toml), "--out", str(tmp_path / "run")]) == 2
+    assert "seed=4294967296: must be in [0, 2**32)" in capsys.readouterr().err
+    assert main(["bench", "--shapes", ","]) == 2
+    assert "shapes=','" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()

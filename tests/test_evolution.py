@@ -159,7 +159,6 @@ def test_bad_toml_is_one_line(tmp_path, capsys, text, message):
 
 def test_resume_refuses_missing_or_damaged_checkpoint(tmp_path, capsys):
     run = tmp_path / "run"
-    run.mkdir()
     assert main(["evolve", "--out", str(run), "--resume", "--quiet"]) == 2
     assert "no config.json" in capsys.readouterr().err
     evolve(resolve(SMALL), run)
@@ -170,7 +169,8 @@ def test_resume_refuses_missing_or_damaged_checkpoint(tmp_path, capsys):
     assert {p.name: p.read_bytes() for p in run.iterdir()} == before
     (run / "checkpoint.json").unlink()
     assert main(["evolve", "--out", str(run), "--resume", "--quiet"]) == 2
-    assert "no checkpoint.json" in capsys.readouterr().err
+    assert "no checkpoint.json, but log.csv holds 5 generations" in capsys.readouterr().err
+    assert {p.name for p in run.iterdir()} == set(before) - {"checkpoint.json"}
 
 
 def test_existing_run_needs_resume_or_force(tmp_path, capsys):

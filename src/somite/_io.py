@@ -24,3 +24,111 @@ def write_atomic(path: str | os.PathLike, text: str) -> Path:
         tmp.unlink(missing_ok=True)
         raise
     return path
+
+
+def _nearest_existing(path: Path) -> Path:
+    for candidate in (path, *path.parents):
+        if candidate.exists() or candidate.is_symlink():
+            return candidate
+    return Path(".")
+
+
+def _check_creatable(path: Path, field: str) -> None:
+    """Refuse ``path`` (to be created) when the folder it would be created in cannot be."""
+    from .errors import bad
+
+    above = _nearest_existing(path.parent if path.parent != path else path)
+    if above.is_symlink() and not above.exists():
+        raise bad(field, str(path), f"{above} is a dangling symbolic link")
+    if not above.is_dir():
+        raise bad(field, str(path), f"{above} is not a folder")
+    if not os.access(above, os.W_OK | os.X_OK):
+        raise bad(field, str(path), f"cannot write in {above} (permission denied or read-only)")
+
+
+def check_output_folder(path: str | os.PathLike, field: str = "out") -> Path:
+    """An output folder that exists (writable) or can be created, or a one-line error;
+    checked before any work, so that no run ends in a traceback when it saves."""
+    from .errors import bad
+
+    path = Path(path)
+    if path.is_symlink() and not path.exists():
+        raise bad(field, str(path), "is a dangling symbolic link")
+    if path.exists():
+        if not path.is_dir():
+            raise bad(field, str(path), "exists and is not a folder")
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise bad(field, str(path), "cannot write in it (permission denied or read-only)")
+        return path
+    _check_creatable(path, field)
+    return path
+
+
+def check_output_file(path: str | os.PathLike, field: str = "out") -> Path:
+    """An output file that can be written (replaced, if it exists), or a one-line error."""
+    from .errors import bad
+
+    path = Path(path)
+    if path.is_symlink() and not path.exists():
+        raise bad(field, str(path), "is a dangling symbolic link")
+    if path.is_dir():
+        raise bad(field, str(path), "is a folder; give the file to write")
+    if path.exists() and not path.is_file():
+        raise bad(field, str(path), "exists and is not a regular file")
+    if path.parent.exists():
+        check_output_folder(path.parent, field)
+    else:
+        _check_creatable(path.parent, field)
+    return path
+
+
+def read_text(path: str | os.PathLike, field: str) -> str:
+    """The UTF-8 text of the regular file ``path``, or a one-line error naming ``field``: no
+    such file, a folder or a FIFO (whose read would wait forever), larger than
+    :data:`~somite.limits.MAX_INPUT_BYTES`, not UTF-8."""
+    import stat
+
+    from .errors import bad
+    from .limits import MAX_INPUT_BYTES
+
+    path = Path(path)
+    try:
+        info = os.stat(path)
+    except OSError as error:
+        raise bad(field, str(path), f"cannot read the file ({error.strerror})") from None
+    if not stat.S_ISREG(info.st_mode):
+        kind = "a folder" if stat.S_ISDIR(info.st_mode) else "not a regular file"
+        raise bad(field, str(path), f"is {kind}")
+    if info.st_size > MAX_INPUT_BYTES:
+        raise bad(field, str(path), f"larger than {MAX_INPUT_BYTES // 2**20} MiB")
+    try:
+        with open(path, "rb") as handle:
+            data = handle.read(MAX_INPUT_BYTES + 1)
+    except OSError as error:
+        raise bad(field, str(path), f"cannot read the file ({error.strerror})") from None
+    if len(data) > MAX_INPUT_BYTES:
+        raise bad(field, str(path), f"larger than {MAX_INPUT_BYTES // 2**20} MiB")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise bad(field, str(path), f"not UTF-8 text ({error.reason} at byte {error.start})"
+                  ) from None
+
+
+def parse_json(text: str, field: str, where: str):
+    """JSON ``text`` or a one-line error: invalid, nested too deeply, an integer too long."""
+    import json
+
+    from .errors import bad
+
+    try:
+        return json.loads(text)
+    except RecursionError:
+        raise bad(field, where, "not valid JSON (nested too deeply)") from None
+    except ValueError as error:  # JSONDecodeError, or an integer of thousands of digits
+        raise bad(field, where, f"not valid JSON ({error})") from None
+
+
+def read_json(path: str | os.PathLike, field: str):
+    """:func:`read_text` then :func:`parse_json`."""
+    return parse_json(read_text(path, field), field, str(path))

@@ -23,6 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._io import read_json
 from ..errors import bad
 from ..experiments.logfile import LOG_COLUMNS
 
@@ -77,10 +78,7 @@ def load_run(path: str | Path) -> RunLog:
     config_path = path / "config.json"
     if not config_path.is_file():
         raise bad("run", str(path), "has no config.json")
-    try:
-        config = json.loads(config_path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise bad("config", str(config_path), f"cannot read it ({error})") from None
+    config = read_json(config_path, "config")
     if not isinstance(config, dict):
         raise bad("config", str(config_path), "expected a JSON object")
     return RunLog(path, config, _read_log(log_path))

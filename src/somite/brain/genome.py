@@ -27,8 +27,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._io import write_atomic
+from .._io import read_text, write_atomic
 from ..errors import bad
+from ..limits import MAX_WEIGHT
 from ..sim.body import Body
 from .kinds import ACTUATOR, HIDDEN, KIND_CODE, KIND_DTYPE, NODE_KINDS, SENSOR
 
@@ -221,11 +222,7 @@ class Genome:
     @classmethod
     def load(cls, path: str | os.PathLike) -> Genome:
         """Read a genome file written by :meth:`save`."""
-        try:
-            text = Path(path).read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as error:
-            raise bad("genome", str(path), f"cannot read the file ({error})") from None
-        return cls.from_dict(_parse_json(text, "genome", str(path)))
+        return cls.from_dict(_parse_json(read_text(path, "genome"), "genome", str(path)))
 
 
 def next_id(genome: Genome) -> int:
@@ -273,11 +270,14 @@ def _fast_index(nodes, edges, table: BodyTable):
     xs = [n.x for n in nodes]
     ys = [n.y for n in nodes]
     slots = [n.slot for n in nodes]
-    codes = [KIND_CODE.get(n.kind) for n in nodes]
-    voxels = [table.voxel_index.get(xy) for xy in zip(xs, ys)]
-    # Exact types: bools and floats hash like ints and would slip through the lookups.
+    # Exact types, before any lookup: bools and floats hash like ints and would slip through,
+    # and a list or dict cannot be looked up at all.
     if not {*map(type, ids), *map(type, xs), *map(type, ys)} <= {int}:
         return None
+    if not {type(n.kind) for n in nodes} <= {str}:
+        return None
+    codes = [KIND_CODE.get(n.kind) for n in nodes]
+    voxels = [table.voxel_index.get(xy) for xy in zip(xs, ys)]
     if None in codes or None in voxels or not set(map(type, slots)) <= {int, _NONE}:
         return None
     position = dict(zip(ids, range(len(ids))))
@@ -285,7 +285,11 @@ def _fast_index(nodes, edges, table: BodyTable):
         return None
     kind = np.array(codes, dtype=KIND_DTYPE)
     voxel = np.array(voxels, dtype=np.int64)
-    slot = np.array([-1 if s is None else s for s in slots], dtype=np.int64)
+    try:
+        slot = np.array([-1 if s is None else s for s in slots], dtype=np.int64)
+        np.array(ids, dtype=np.int64)
+    except OverflowError:  # an integer of many digits: the item-by-item check names it
+        return None
     if not _nodes_cover_body(kind, voxel, slot, [s is None for s in slots], table):
         return None
     edge_columns = _fast_edges(edges, position, kind)
@@ -324,7 +328,7 @@ def _fast_edges(edges, position: dict, kind: np.ndarray):
         return None
     u = [position.get(i) for i in srcs]
     v = [position.get(i) for i in dsts]
-    if None in u or None in v or not all(map(math.isfinite, params)):
+    if None in u or None in v or not all(abs(p) <= MAX_WEIGHT for p in params):
         return None
     if len(set(zip(u, v))) != len(u):
         return None
@@ -344,8 +348,8 @@ def _check_nodes(nodes, table: BodyTable):
     for i, node in enumerate(nodes):
         if not isinstance(node, Node):
             raise bad(f"nodes[{i}]", node, "expected a Node")
-        if not _is_int(node.id) or node.id < 0:
-            raise bad(f"nodes[{i}].id", node.id, "node ids must be integers >= 0")
+        if not _is_int(node.id) or not 0 <= node.id < 2**63:
+            raise bad(f"nodes[{i}].id", node.id, "node ids must be integers in [0, 2**63)")
         if node.id in position:
             raise bad(f"nodes[{i}].id", node.id, "node ids must be unique")
         try:
@@ -418,8 +422,10 @@ def _check_edges(edges, position: dict, kinds: list):
             raise bad(f"edges[{i}]", (edge.src, edge.dst), "duplicate edge")
         for name in ("weight", "bias"):
             value = getattr(edge, name)
-            if not _is_real(value) or not math.isfinite(value):
-                raise bad(f"edges[{i}].{name}", value, "must be a finite number")
+            # Compared, not converted: an integer of 400 digits overflows a float.
+            if not _is_real(value) or not abs(value) <= MAX_WEIGHT:
+                raise bad(f"edges[{i}].{name}", value,
+                          f"must be a number of magnitude at most {MAX_WEIGHT:g} (somite.limits)")
         pairs.add((u, v))
         src.append(u)
         dst.append(v)
@@ -439,7 +445,10 @@ def _node_dict(node: Node) -> dict:
 def _parse_json(text: str, field: str, where: str | None = None):
     try:
         return json.loads(text)
-    except (json.JSONDecodeError, TypeError) as error:
+    except RecursionError:
+        raise bad(field, where if where is not None else str(text)[:40],
+                  "not valid JSON: nested too deeply") from None
+    except (ValueError, TypeError) as error:  # ValueError: an integer of thousands of digits
         detail = getattr(error, "msg", str(error))
         position = ""
         if hasattr(error, "lineno"):

@@ -4,9 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
-from .._io import write_atomic
+from .._io import check_output_folder, write_atomic
 from ..errors import bad
 from ..modules.library import assemble, list_library, parse_placement
 from .common import add_simulation_options, simulation_config
@@ -29,9 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise bad("out", args.out, "exists and is not a folder")
+    out = check_output_folder(args.out)
     if args.evaluate < 0:
         raise bad("evaluate", args.evaluate, "must be 0 or more")
     config = simulation_config(args) if args.evaluate else None

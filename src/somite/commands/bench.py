@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..bench import bench
+from ..errors import bad
 from .common import add_options, print_json
 
 HELP = "Time the simulation kernel (96 random ~200-element controllers, hilly, 30 s); JSON."
@@ -25,5 +26,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.duration > 0:
         raise bad("duration", args.duration, "must be positive")
     shapes = tuple(s for s in args.shapes.split(",") if s)
+    if not shapes:
+        raise bad("shapes", args.shapes, "name at least one shape")
     print_json(bench(shapes, args.robots, args.duration, scaling=not args.no_scaling))
     return 0

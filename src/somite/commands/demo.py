@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from .._io import check_output_folder
 from ..experiments.config import resolve
 from ..experiments.runner import RunDirectory, evolve
 from .common import add_options
@@ -30,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
     from ..viz.plots import plot_runs
     from ..viz.video import render_episode
 
-    out = Path(args.out)
+    out = check_output_folder(args.out)
     run_dir = out / "run"
     config = resolve({**DEMO, "generations": args.generations})
     with progress_bar(config.generations, args.quiet) as report:

@@ -5,11 +5,9 @@ from __future__ import annotations
 import argparse
 import csv
 import io
-from pathlib import Path
 
-from .._io import write_atomic
+from .._io import check_output_folder, write_atomic
 from ..brain.genome import Genome
-from ..errors import bad
 from ..modules.discovery import partition_around, rank_candidates, score
 from .common import add_options, load_genome
 
@@ -24,9 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise bad("out", args.out, "exists and is not a folder")
+    out = check_output_folder(args.out)
     genome = load_genome(args.genome)
     ranked = rank_candidates(genome, args.b_min, args.b_max)
     best = ranked[0]

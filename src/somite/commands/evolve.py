@@ -51,7 +51,8 @@ def add_evolution_options(parser: argparse.ArgumentParser) -> None:
                         "default, as the authors' code; --no-reevaluate-parents: Algorithm 1 "
                         "as printed, each parent keeps its one evaluation)")
     parser.add_argument("--checkpoint-every", type=int)
-    parser.add_argument("--resume", action="store_true", help="continue from the last checkpoint")
+    parser.add_argument("--resume", action="store_true", help="continue from the last checkpoint (a run killed before its first "
+                        "one starts again: the same run)")
     parser.add_argument("--force", action="store_true", help="overwrite an existing run")
     add_options(parser, "quiet")
 
@@ -63,9 +64,11 @@ _OPTIONS = ("preset", "shape", "sensors", "generations", "population", "seed", "
 
 def run(args: argparse.Namespace) -> int:
     config = configuration(args)
-    with progress_bar(config.generations, args.quiet) as report:
-        ea = evolve(config, args.out, resume=args.resume, force=args.force, progress=report)
-    summarise(ea, RunDirectory(args.out), args.quiet)
+    # Locked before the progress bar starts, so that a refusal is the only line printed.
+    with RunDirectory(args.out).locked() as run_dir:
+        with progress_bar(config.generations, args.quiet) as report:
+            ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report)
+    summarise(ea, run_dir, args.quiet)
     return 0
 
 
@@ -76,7 +79,10 @@ def configuration(args: argparse.Namespace, **fixed) -> RunConfig:
     run_dir = RunDirectory(args.out)
     if args.resume and args.force:
         raise bad("resume", True, "--resume and --force exclude each other")
-    if args.resume:
+    # A run killed before it wrote config.json left an empty directory: resuming it is
+    # starting it.
+    unborn = run_dir.path.is_dir() and not run_dir.has_run()
+    if args.resume and not unborn:
         saved = run_dir.saved_config().to_dict()
         changed = {k: v for k, v in cli.items() if k != "generations" and saved.get(k) != v}
         if args.config or changed:
@@ -141,4 +147,7 @@ class progress_bar:
 
     def __exit__(self, *exc) -> None:
         if self.bar is not None:
+            if exc[0] is not None:
+                # Erase the bar, so that an error is the only line left on the terminal.
+                self.bar.live.transient = True
             self.bar.stop()

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
-from .._io import write_atomic
+from .._io import check_output_file, write_atomic
 from ..errors import bad
 from ..modules.library import list_library, module_text, provenance_of
 from ..modules.module import cut
@@ -48,9 +47,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _export(args: argparse.Namespace) -> int:
-    out = Path(args.out)
-    if out.is_dir():
-        raise bad("out", args.out, "is a folder; give the module file to write")
+    out = check_output_file(args.out)
     if not out.name.endswith(".json") or out.name == ".json":
         raise bad("out", args.out, "a module file is named NAME.json (NAME is its library name)")
     donor = load_genome(args.genome)

@@ -14,7 +14,7 @@ import io
 import json
 from pathlib import Path
 
-from .._io import write_atomic
+from .._io import check_output_folder, write_atomic
 from ..errors import bad
 from ..modules.reassembly import Take, paper_takes, reassemble, receiver_for
 from ..sim.partition import Partition
@@ -83,6 +83,10 @@ def run(args: argparse.Namespace) -> int:
     out = _check_out(args.out)
     if args.validation < 0:
         raise bad("validation", args.validation, "must be 0 or more")
+    if args.validation:
+        from ..tasks.validation import check_count
+
+        check_count(args.validation)
     config = simulation_config(args)
     genomes = (load_genome(args.donor1), load_genome(args.donor2))
     donors = tuple(zip(genomes, _donor_partitions(args.partition, genomes)))
@@ -130,10 +134,7 @@ def _validation(args, reassembled, donors, config) -> dict:
 
 
 def _check_out(text: str) -> Path:
-    out = Path(text)
-    if out.exists() and not out.is_dir():
-        raise bad("out", text, "exists and is not a folder")
-    return out
+    return check_output_folder(text)
 
 
 def _donor_partitions(specs, donors) -> tuple[Partition, Partition]:

@@ -5,9 +5,9 @@ from __future__ import annotations
 import argparse
 import math
 
-from ..errors import bad
 from ..experiments.reoptimize import donor_velocities, transfer_curve
 from ..experiments.runner import RunDirectory, evolve
+from ..tasks.validation import check_count
 from ..tasks.velocity import mean_velocity
 from .common import add_genome, add_options, load_genome
 from .evolve import add_evolution_options, configuration, progress_bar, summarise
@@ -26,18 +26,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.validation < 1:
-        raise bad("validation", args.validation, "must be at least 1")
+    check_count(args.validation)
     genome = load_genome(args.genome)
     donors = [load_genome(path) for path in args.donors]
     shape = genome.body.shape.grid_string()
     config = configuration(args, shape=shape, start=str(args.genome))
-    with progress_bar(config.generations, args.quiet) as report:
-        ea = evolve(config, args.out, resume=args.resume, force=args.force, progress=report,
-                    start=None if args.resume else genome)
     sim = config.task().sim
-    velocities = donor_velocities(donors, sim, args.validation) if donors else []
-    rows = transfer_curve(args.out, velocities, sim, args.validation)
+    # Locked until transfer.csv is written: it is part of the run.
+    with RunDirectory(args.out).locked() as run_dir:
+        with progress_bar(config.generations, args.quiet) as report:
+            ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report,
+                        start=genome)
+        velocities = donor_velocities(donors, sim, args.validation) if donors else []
+        rows = transfer_curve(args.out, velocities, sim, args.validation)
     summarise(ea, RunDirectory(args.out), args.quiet)
     donors_mean = mean_velocity(velocities) if donors else math.nan
     if not args.quiet and donors:

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
+from .._io import read_json
 from ..errors import bad
+from ..limits import MAX_FRAMES, at_most
 from ..sim.config import CONTROL_HZ
 from ..sim.terrain import TERRAIN_HELP
 from ..viz.frame import frame_steps
@@ -59,6 +60,7 @@ def run(args: argparse.Namespace) -> int:
             raise bad("frames", args.frames, "a time-lapse strip is a .png; drop --frames")
         if args.frames < 1:
             raise bad("frames", args.frames, "must be at least 1")
+        at_most("frames", args.frames, MAX_FRAMES)
     # Check what can be checked before a simulation that may take a while.
     frame_steps(1, args.fps)
     frame_size(args.width, args.height, TILE_SIZE if out.suffix.lower() in STRIP_FORMATS
@@ -84,9 +86,6 @@ def _run_config(target: str) -> dict:
     path = Path(target) / "config.json"
     if not path.is_file():
         return {}
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise bad("config", str(path), f"cannot read it ({error})") from None
+    data = read_json(path, "config")
     return data if isinstance(data, dict) else {}
 

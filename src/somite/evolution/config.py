@@ -7,9 +7,11 @@ What a *run* needs on top (body, seed, generations, terrains, episodes, checkpoi
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass, field, fields, replace
 
 from ..errors import bad
+from ..limits import MAX_POPULATION, at_most
 from ..sim.body import Shape
 from ..sim.partition import Partition
 from .operators import OperatorConfig
@@ -30,7 +32,8 @@ def check_types(cls, values: dict) -> dict:
         if not isinstance(value, expected) or (types[name] != "bool" and isinstance(value, bool)):
             raise bad(name, value, f"must be of type {types[name]}")
         if types[name] == "float":
-            if not math.isfinite(value):
+            # Compared before converted: an integer of 400 digits overflows a float.
+            if not (-sys.float_info.max <= value <= sys.float_info.max):
                 raise bad(name, value, "must be a finite number")
             checked[name] = float(value)
     return checked
@@ -78,6 +81,7 @@ class GAConfig:
         check_types(GAConfig, {f.name: getattr(self, f.name) for f in fields(self)})
         if not isinstance(self.operators, OperatorConfig):
             raise bad("operators", self.operators, "expected an OperatorConfig")
+        at_most("population", self.population, MAX_POPULATION)
         for name, low in (("population", 2), ("tournament", 1)):
             if getattr(self, name) < low:
                 raise bad(name, getattr(self, name), f"must be at least {low}")

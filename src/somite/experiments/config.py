@@ -13,7 +13,9 @@ import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
+from .._io import read_text
 from ..errors import bad
+from ..limits import MAX_EVALUATIONS, MAX_GENERATIONS, at_most
 from ..evolution.config import GAConfig, check_types
 from ..evolution.operators import OperatorConfig
 from ..sim.body import Body
@@ -78,7 +80,12 @@ class RunConfig:
                           ("checkpoint_every", 1)):
             if getattr(self, name) < low:
                 raise bad(name, getattr(self, name), f"must be at least {low}")
+        if not 0 <= self.seed < 2**32:
+            raise bad("seed", self.seed, "must be in [0, 2**32)")
+        at_most("generations", self.generations, MAX_GENERATIONS)
+        at_most("evaluations", self.evaluations, MAX_EVALUATIONS)
         parse_distribution(self.terrain)
+        self.body()  # validates shape and sensors before any run starts
         self.task()  # validates duration and transient
 
     def body(self) -> Body:
@@ -120,9 +127,7 @@ def load_toml(path: str | Path) -> dict:
     """The options of a TOML file, checked for unknown keys (types are checked on build)."""
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise bad("config", str(path), "no such file") from None
+        data = tomllib.loads(read_text(path, "config"))
     except tomllib.TOMLDecodeError as error:
         raise bad("config", str(path), f"not valid TOML ({error})") from None
     known = option_names()
@@ -135,7 +140,7 @@ def load_toml(path: str | Path) -> dict:
 def resolve(options: dict) -> RunConfig:
     """Build the configuration: preset defaults, then ``options`` (TOML and CLI merged, flat)."""
     name = options.get("preset", "paper")
-    if name not in RUN_PRESETS:
+    if not isinstance(name, str) or name not in RUN_PRESETS:
         raise bad("preset", name, f"use one of {list(RUN_PRESETS)}")
     merged = {**RUN_PRESETS[name], **options}
     known = option_names()

@@ -55,5 +55,6 @@ def transfer_curve(run: str | Path, donors: Sequence[float], config: SimConfig,
     writer = csv.DictWriter(out, TRANSFER_COLUMNS, lineterminator="\n")
     writer.writeheader()
     writer.writerows(rows)
+    run_dir.record("transfer.csv")
     write_atomic(run_dir.file("transfer.csv"), out.getvalue())
     return rows

@@ -7,62 +7,103 @@ A run directory holds
 - ``bests.jsonl``: the best genome of every generation, one compact JSON object a line;
 - ``best.json``: the best genome so far with its body (any command that takes a genome reads it);
 - ``checkpoint.json``: population, fitness, origins and both generators' states, written
-  atomically at generation 0, every ``checkpoint_every`` generations and at the end.
+  atomically at generation 0, every ``checkpoint_every`` generations and at the end;
+- ``manifest.json``: the files above that the run wrote (``transfer.csv`` too, for a
+  re-optimisation), written before them: ``--force`` deletes these and refuses a folder
+  holding anything else;
+- ``.somite.lock``, while the run goes on (:mod:`somite.experiments.lock`).
 
 ``--resume`` cuts ``log.csv`` and ``bests.jsonl`` back to the checkpoint's generation and goes
 on from there; as every random draw comes from the checkpointed generators, the resumed run
-writes the same rows and the same best genome as one that was never interrupted.
+writes the same rows and the same best genome as one that was never interrupted. A run killed
+before its first checkpoint (during generation 0, or before it wrote ``config.json``) starts
+again on ``--resume``, which for a seeded run is the same thing; temporary files of writes a
+kill cut short are removed. ``--resume --generations N`` rewrites ``config.json`` with N.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import math
+import re
 from collections.abc import Callable
 from pathlib import Path
 
-from .._io import write_atomic
+from .._io import check_output_folder, read_json, read_text, write_atomic
 from ..brain.genome import Genome
 from ..errors import bad
 from ..evolution.config import GAConfig
 from ..evolution.ea import GraphEA
-from ..sim.body import Shape
+from ..sim.body import Body, Shape
 from .config import RunConfig, resolve
+from .lock import LOCK_NAME, RunLock
 from .logfile import LOG_COLUMNS, format_row
 
-RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json")
+RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json",
+             "transfer.csv")
+MANIFEST = "manifest.json"
+MANIFEST_FORMAT = "somite-run-manifest"
+"""``manifest.json`` lists the files a run wrote: the only ones ``--force`` deletes."""
+_TEMPORARY = re.compile(r"\.(?P<name>.+)\.\d+\.[0-9a-f]{8}\.tmp")
+"""A temporary file of :func:`somite._io.write_atomic` (``.NAME.PID.RAND.tmp``)."""
 CHECKPOINT_FORMAT = "somite-checkpoint"
-CHECKPOINT_VERSION = 2
-"""Version 2 (issue 9): two generators (variation, evaluation) instead of one. A version-1
-checkpoint cannot be resumed: its single generator's draws are not the two of version 2."""
+CHECKPOINT_VERSION = 3
+"""Version 3 (issue 10): the checkpoint holds its run's fingerprint (:func:`run_fingerprint`).
+Version 2 (issue 9): two generators (variation, evaluation) instead of one. An older
+checkpoint cannot be resumed: it cannot be tied to its run, or its draws are not version 3's."""
 
 
-def save_checkpoint(path: Path, ea: GraphEA) -> None:
-    data = {"format": CHECKPOINT_FORMAT, "version": CHECKPOINT_VERSION, **ea.state()}
+def run_fingerprint(config: RunConfig, body: Body) -> str:
+    """A hash of everything that decides a run's draws: its resolved configuration but the
+    number of generations (``--resume`` may change that) and its body. A checkpoint is
+    resumed only in the run whose fingerprint it carries."""
+    options = {k: v for k, v in config.to_dict().items() if k != "generations"}
+    text = json.dumps({"config": options, "body": body.to_dict()}, sort_keys=True,
+                      separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def save_checkpoint(path: Path, ea: GraphEA, config: RunConfig) -> None:
+    data = {"format": CHECKPOINT_FORMAT, "version": CHECKPOINT_VERSION,
+            "run": run_fingerprint(config, ea.body), **ea.state()}
     write_atomic(path, json.dumps(data, separators=(",", ":")))
 
 
-def load_checkpoint(path: Path, config: GAConfig) -> GraphEA:
-    """Read a checkpoint; anything missing, damaged or of another version is a one-line
-    error."""
+def load_checkpoint(path: Path, config: RunConfig, logged: int) -> GraphEA:
+    """Read a checkpoint of the run ``config`` whose ``log.csv`` holds ``logged`` rows;
+    anything missing, damaged, of another version, of another run or at a generation the log
+    does not reach is a one-line error."""
     if not path.is_file():
         raise bad("resume", str(path.parent), "no checkpoint.json in this run directory")
+    text = read_text(path, "checkpoint")
     try:
-        data = json.loads(path.read_text())
-    except ValueError as error:
+        data = json.loads(text)
+    except (ValueError, RecursionError) as error:
         raise bad("checkpoint", str(path), f"damaged checkpoint ({error})") from None
     if not isinstance(data, dict) or data.get("format") != CHECKPOINT_FORMAT:
         raise bad("checkpoint", str(path), "damaged checkpoint (not a somite checkpoint)")
     if data.get("version") != CHECKPOINT_VERSION:
         raise bad("checkpoint", str(path),
-                  f"version {data.get('version')} cannot be resumed by this somite (it reads "
+                  f"version {data.get('version')!r} cannot be resumed by this somite (it reads "
                   f"version {CHECKPOINT_VERSION}); start the run again")
+    generation = data.get("generation")
+    if not isinstance(generation, int) or isinstance(generation, bool) or not (
+        0 <= generation < logged
+    ):
+        held = f"generations 0 to {logged - 1}" if logged else "no generation"
+        raise bad("checkpoint.generation", generation, f"log.csv holds {held}")
     try:
-        return GraphEA.restore(data, config)
-    except (ValueError, KeyError, TypeError, AttributeError) as error:
+        ea = GraphEA.restore(data, config.ga)
+    except (ValueError, KeyError, TypeError, AttributeError, IndexError, OverflowError,
+            RecursionError) as error:
         raise bad("checkpoint", str(path), f"damaged checkpoint ({error})") from None
+    if data.get("run") != run_fingerprint(config, ea.body):
+        raise bad("checkpoint", str(path), "belongs to another run (its configuration or body "
+                  "is not this directory's config.json)")
+    return ea
 
 
 def _json_number(value: float) -> float | None:
@@ -74,6 +115,31 @@ class RunDirectory:
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
+        self.lock = RunLock(self.path)
+
+    def locked(self) -> RunDirectory:
+        """Create the folder if need be and take its lock (see :mod:`.lock`); a context
+        manager that releases it."""
+        check_output_folder(self.path)
+        self._created = not self.path.exists()
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            raise bad("out", str(self.path), f"cannot create it ({error.strerror})") from None
+        self.lock.acquire()
+        return self
+
+    def __enter__(self) -> RunDirectory:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.lock.release()
+        if exc[0] is not None and getattr(self, "_created", False):
+            # Refused before it wrote anything: leave no empty directory behind.
+            try:
+                self.path.rmdir()
+            except OSError:
+                pass
 
     def file(self, name: str) -> Path:
         return self.path / name
@@ -81,26 +147,102 @@ class RunDirectory:
     def has_run(self) -> bool:
         return any(self.file(name).exists() for name in RUN_FILES)
 
-    def prepare_new(self, config: RunConfig, force: bool) -> None:
-        if self.path.exists() and not self.path.is_dir():
-            raise bad("out", str(self.path), "exists and is not a directory")
-        if self.has_run() and not force:
+    def remove_temporary(self) -> None:
+        """Delete the temporary files a killed writer of run files left (call it locked:
+        then no live writer owns them)."""
+        for path in self.path.iterdir():
+            match = _TEMPORARY.fullmatch(path.name)
+            if match and match["name"] in (*RUN_FILES, MANIFEST) and path.is_file():
+                path.unlink(missing_ok=True)
+
+    def manifest(self) -> list[str]:
+        """The files this run wrote (or is about to), from ``manifest.json``; [] without
+        one (or with one that is not somite's)."""
+        return self._read_manifest() or []
+
+    def _read_manifest(self) -> list[str] | None:
+        try:
+            data = json.loads(self.file(MANIFEST).read_text(encoding="utf-8"))
+        except (OSError, ValueError, RecursionError):
+            return None
+        if not isinstance(data, dict) or data.get("format") != MANIFEST_FORMAT or not (
+            isinstance(data.get("files"), list)
+        ):
+            return None
+        return [n for n in data["files"] if isinstance(n, str) and n in RUN_FILES]
+
+    def record(self, *names: str) -> None:
+        """Add ``names`` to the manifest; call it before writing them, so that a kill between
+        the two leaves no file of the run unlisted."""
+        listed = self.manifest()
+        if all(n in listed for n in names) and self.file(MANIFEST).is_file():
+            return
+        data = {"format": MANIFEST_FORMAT, "files": [*listed, *(n for n in names
+                                                                 if n not in listed)]}
+        write_atomic(self.file(MANIFEST), json.dumps(data) + "\n")
+
+    def foreign(self) -> str | None:
+        """The first entry of the folder that is not a file this run's manifest lists (nor
+        the manifest, the lock or a temporary file of a run file), or None."""
+        listed = self.manifest()
+        own = {LOCK_NAME, *listed}
+        if listed:
+            own.add(MANIFEST)
+        for path in sorted(self.path.iterdir()):
+            match = _TEMPORARY.fullmatch(path.name)
+            if match and match["name"] in (*RUN_FILES, MANIFEST):
+                continue
+            if path.name not in own or path.is_symlink() or not path.is_file():
+                return path.name
+        return None
+
+    def remove_own(self) -> None:
+        """Delete the files the manifest lists (and temporary files), nothing else."""
+        self.remove_temporary()
+        for name in self.manifest():
+            path = self.file(name)
+            if path.is_file() and not path.is_symlink():
+                path.unlink()
+
+    def logged_generations(self) -> int:
+        """How many complete rows ``log.csv`` holds (0 when it is missing)."""
+        log = self.file("log.csv")
+        if not log.is_file():
+            return 0
+        lines = log.read_text(encoding="utf-8").splitlines()
+        return max(0, sum(1 for line in lines[1:] if line.count(",") == len(LOG_COLUMNS) - 1))
+
+    def prepare_new(self, config: RunConfig, force: bool, restart: bool = False) -> None:
+        """Start the run's files. ``force``: replace a run here, but refuse when the folder
+        holds anything its manifest does not list. ``restart``: replace this run's own files
+        (one killed before its first checkpoint), leaving anything else alone."""
+        if self.file(MANIFEST).exists() and self._read_manifest() is None:
+            raise bad("out", str(self.path), f"holds a {MANIFEST} that is not a somite run's")
+        if force and not restart:
+            name = self.foreign()
+            if name is not None:
+                raise bad("out", str(self.path),
+                          f"holds {name}, which is not a file of the run's manifest.json; "
+                          "--force deletes only those: move it away first")
+        elif self.has_run() and not restart:
             raise bad("out", str(self.path), "holds a run already; use --resume or --force")
-        self.path.mkdir(parents=True, exist_ok=True)
-        for name in RUN_FILES:
-            self.file(name).unlink(missing_ok=True)
-        write_atomic(self.file("config.json"), json.dumps(config.to_dict(), indent=2) + "\n")
+        self.remove_own()
+        self.record("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json")
+        self.write_config(config)
         write_atomic(self.file("log.csv"), ",".join(LOG_COLUMNS) + "\n")
         write_atomic(self.file("bests.jsonl"), "")
+
+    def write_config(self, config: RunConfig) -> None:
+        write_atomic(self.file("config.json"), json.dumps(config.to_dict(), indent=2) + "\n")
 
     def saved_config(self) -> RunConfig:
         path = self.file("config.json")
         if not path.is_file():
             raise bad("resume", str(self.path), "no config.json in this run directory")
-        try:
-            return resolve(json.loads(path.read_text()))
-        except json.JSONDecodeError as error:
-            raise bad("config", str(path), f"not valid JSON ({error})") from None
+        data = read_json(path, "config")
+        if not isinstance(data, dict):
+            raise bad("config", str(path), f"expected a JSON object, not {type(data).__name__}")
+        return resolve(data)
 
     def cut_back(self, generation: int) -> None:
         """Drop log rows and best genomes written after ``generation`` (and torn lines)."""
@@ -142,9 +284,9 @@ class RunDirectory:
         with open(self.file("bests.jsonl"), "a", encoding="utf-8") as handle:
             handle.write(json.dumps(entry, separators=(",", ":")) + "\n")
 
-    def save(self, ea: GraphEA) -> None:
+    def save(self, ea: GraphEA, config: RunConfig) -> None:
         ea.best.save(self.file("best.json"))
-        save_checkpoint(self.file("checkpoint.json"), ea)
+        save_checkpoint(self.file("checkpoint.json"), ea, config)
 
 
 Progress = Callable[[GraphEA, dict], None]
@@ -162,7 +304,7 @@ def step(ea: GraphEA, task, config: RunConfig) -> dict:
 
 def evolve(
     config: RunConfig,
-    out: str | Path,
+    out: str | Path | RunDirectory,
     resume: bool = False,
     force: bool = False,
     progress: Progress | None = None,
@@ -172,11 +314,35 @@ def evolve(
 
     With ``start`` (a re-optimisation), the first population is ``start`` and mutants of it;
     its shape must be the configuration's. ``progress`` is called after every generation with
-    the EA and the log row.
+    the EA and the log row. The run directory is locked for the run (a second process is
+    refused); a caller that needs it locked for longer passes a locked :class:`RunDirectory`.
     """
-    run_dir = RunDirectory(out)
+    if isinstance(out, RunDirectory) and out.lock.held:
+        return _evolve(config, out, resume, force, progress, start)
+    with RunDirectory(out.path if isinstance(out, RunDirectory) else out).locked() as run_dir:
+        return _evolve(config, run_dir, resume, force, progress, start)
+
+
+def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
+            progress: Progress | None, start: Genome | None) -> GraphEA:
+    restart = False
     if resume:
-        ea = load_checkpoint(run_dir.file("checkpoint.json"), config.ga)
+        run_dir.remove_temporary()
+        if not run_dir.file("checkpoint.json").exists():
+            # Killed before its first checkpoint (during generation 0): as every draw comes
+            # from the seed, starting again is resuming. More than generation 0 logged
+            # means the checkpoint went missing, and the log is not thrown away.
+            logged = run_dir.logged_generations()
+            if logged > 1:
+                raise bad("resume", str(run_dir.path),
+                          f"no checkpoint.json, but log.csv holds {logged} generations")
+            resume, restart = False, True
+    if resume:
+        ea = load_checkpoint(run_dir.file("checkpoint.json"), config,
+                             run_dir.logged_generations())
+        if ea.generation > config.generations:
+            raise bad("generations", config.generations,
+                      f"the checkpoint is at generation {ea.generation} already")
     else:
         body = config.body() if start is None else start.body
         if body.shape != Shape.parse(config.shape):
@@ -186,8 +352,10 @@ def evolve(
     task = config.task(ea.body)
     if resume:
         run_dir.cut_back(ea.generation)
+        if run_dir.saved_config() != config:  # --resume --generations N
+            run_dir.write_config(config)
     else:
-        run_dir.prepare_new(config, force)
+        run_dir.prepare_new(config, force, restart)
     while ea.generation < config.generations:
         row = step(ea, task, config)
         run_dir.append(row, ea.best)
@@ -196,5 +364,5 @@ def evolve(
         if ea.generation % config.checkpoint_every == 0 or ea.generation in (
             0, config.generations
         ):
-            run_dir.save(ea)
+            run_dir.save(ea, config)
     return ea

@@ -35,6 +35,7 @@ from ..brain.genome import Genome
 from ..errors import bad
 from ..sim.body import Shape, component
 from ..sim.partition import Partition
+from .module import exact_sum
 
 Voxel = tuple[int, int]
 
@@ -172,8 +173,8 @@ def score(genome: Genome, sets: tuple[tuple[int, ...], ...]) -> tuple[Candidate,
             Candidate(
                 tuple(voxels[i] for i in members),
                 members,
-                math.fsum(weight[in_a & in_b]),
-                math.fsum(weight[in_a ^ in_b]),
+                exact_sum(weight[in_a & in_b]),
+                exact_sum(weight[in_a ^ in_b]),
             )
         )
     return tuple(out)

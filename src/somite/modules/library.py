@@ -34,7 +34,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from .._io import write_atomic
+from .._io import read_json, write_atomic
 from ..brain.genome import Edge, Genome, Node
 from ..errors import SomiteError, bad
 from ..sim.body import SENSOR_KINDS, Body, Shape, component, is_connected
@@ -184,6 +184,9 @@ def module_from_dict(data, name: str, path: str | None = None) -> LibraryModule:
     for x, y in voxels:
         if type(x) is not int or type(y) is not int:
             raise bad("voxels", (x, y), "voxel coordinates are integers")
+    for i, node in enumerate(nodes):
+        if type(node.x) is not int or type(node.y) is not int:
+            raise bad(f"nodes[{i}]", (node.x, node.y), "node coordinates are integers")
     module = Module(str(data.get("label", name)), tuple(voxels), tuple(sensors), nodes, edges)
     return LibraryModule(name, module, _provenance_from(data.get("provenance", {})), path)
 
@@ -246,14 +249,7 @@ def export_module(module: Module, path: str | os.PathLike, provenance: Provenanc
 def load_module(path: str | os.PathLike) -> LibraryModule:
     """Read a module file; its library name is the file name without ``.json``."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        raise bad("module", str(path), f"cannot read the file ({error})") from None
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise bad("module", str(path), f"not valid JSON: {error.msg}") from None
+    data = read_json(path, "module")
     try:
         return module_from_dict(data, _name_of(path), str(path))
     except SomiteError as error:

@@ -25,6 +25,15 @@ from ..errors import bad
 from ..sim.body import Body, Shape, is_connected, voxel_readings
 from ..sim.partition import Partition
 
+
+def exact_sum(values) -> float:
+    """``math.fsum`` (equal sets give bit-equal sums whatever the order), or the plain float
+    sum (inf or NaN) when a partial sum overflows, as weights near 1e308 make it."""
+    try:
+        return math.fsum(values)
+    except OverflowError:
+        return float(np.sum(np.asarray(values, dtype=np.float64)))
+
 Voxel = tuple[int, int]
 
 
@@ -219,7 +228,7 @@ class Disassembly:
         weight = _weights(self.donor.edges)
         crossing = _weights(self.crossing)
         return CutRatio(
-            len(self.donor.edges), len(self.crossing), math.fsum(weight), math.fsum(crossing)
+            len(self.donor.edges), len(self.crossing), exact_sum(weight), exact_sum(crossing)
         )
 
     def _position(self, label: str) -> int:
@@ -264,8 +273,8 @@ def cut(genome: Genome, partition: Partition) -> Disassembly:
             CutRatio(
                 int(touching.sum()),
                 int(crossing.sum()),
-                math.fsum(weight[touching]),
-                math.fsum(weight[crossing]),
+                exact_sum(weight[touching]),
+                exact_sum(weight[crossing]),
             )
         )
     dropped = src_module != dst_module

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 from ..errors import bad
+from ..limits import MAX_SHAPE_SIDE
 
 SENSOR_KINDS = ("area", "touch", "velocity", "lidar")
 """Sensor kinds, in the order in which a voxel lists them when it has several."""
@@ -86,6 +87,9 @@ class Shape:
             width, height = int(match.group(1)), int(match.group(2))
             if width < 1 or height < 1:
                 raise bad("shape", text, "a rectangle needs a positive width and height")
+            if max(width, height) > MAX_SHAPE_SIDE:
+                raise bad("shape", text, f"at most {MAX_SHAPE_SIDE} voxels a side "
+                          "(somite.limits)")
             spec = "/".join(["1" * width] * height)
         if not _GRID.match(spec):
             raise bad(
@@ -95,6 +99,8 @@ class Shape:
         if len({len(row) for row in rows}) != 1:
             raise bad("shape", text, "all rows of a grid must have the same length")
         height = len(rows)
+        if max(height, len(rows[0])) > MAX_SHAPE_SIDE:
+            raise bad("shape", text, f"at most {MAX_SHAPE_SIDE} voxels a side (somite.limits)")
         cells = [
             (x, height - 1 - r) for r, row in enumerate(rows) for x, c in enumerate(row) if c == "1"
         ]
@@ -252,6 +258,8 @@ class Body:
             raise bad("body", data, "expected an object with 'shape' and 'sensors'")
         shape = Shape.parse(data["shape"])
         sensors = data.get("sensors", "paper")
+        if not isinstance(sensors, (str, list)):
+            raise bad("body.sensors", sensors, "expected a preset name or a list of {x, y, kinds}")
         if isinstance(sensors, list):
             try:
                 sensors = {(int(s["x"]), int(s["y"])): list(s["kinds"]) for s in sensors}

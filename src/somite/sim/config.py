@@ -14,6 +14,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import bad
+from ..limits import MAX_DURATION, at_most
 
 CONTROL_HZ = 60.0
 VOXEL_SIDE = 3.0
@@ -79,8 +80,10 @@ class SimConfig:
             value = getattr(self, f.name)
             if isinstance(value, float) and not math.isfinite(value):
                 raise bad(f.name, value, "must be a finite number")
-        if not self.duration > 0:
-            raise bad("duration", self.duration, "must be positive")
+        if not self.duration * CONTROL_HZ >= 1:
+            raise bad("duration", self.duration,
+                      f"must be at least one control step ({1 / CONTROL_HZ:g} s)")
+        at_most("duration", self.duration, MAX_DURATION)
         if self.transient < 0:
             raise bad("transient", self.transient, "must be zero or positive")
         _positive_int(self, "substeps", "touch_window", "velocity_window")

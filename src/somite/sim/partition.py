@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._io import write_atomic
+from .._io import read_json, write_atomic
 from ..errors import bad
 from .body import PRESET_SHAPES, Shape, is_connected
 
@@ -174,10 +174,7 @@ class Partition:
     @classmethod
     def load(cls, path: str | os.PathLike, shape: Shape | str | None = None) -> Partition:
         """Read a partition file; with ``shape``, it must be for that shape."""
-        try:
-            data = json.loads(Path(path).read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
-            raise bad("partition", str(path), f"cannot read a partition file ({error})") from None
+        data = read_json(path, "partition")
         return cls.from_dict(data, shape, str(path))
 
     @cached_property

@@ -12,6 +12,8 @@ import numpy as np
 
 from ..brain.compile import compile_genome
 from ..brain.genome import Genome
+from ..errors import bad
+from ..limits import MAX_VALIDATION, at_most
 from ..sim.config import SimConfig
 from ..sim.terrain import Terrain, hilly
 from .locomotion import Outcome, simulate
@@ -19,8 +21,17 @@ from .locomotion import Outcome, simulate
 VALIDATION_SEED0 = 10000
 
 
+def check_count(count: int) -> int:
+    """A number of validation terrains: 1 to :data:`~somite.limits.MAX_VALIDATION`."""
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise bad("validation", count, "must be a whole number at least 1")
+    at_most("validation", count, MAX_VALIDATION)
+    return count
+
+
 def validation_terrains(count: int = 10) -> list[Terrain]:
     """The ``count`` fixed hilly validation terrains (hilly-1-10-10000, hilly-1-10-10001, ...)."""
+    check_count(count)
     return [hilly(1.0, 10.0, VALIDATION_SEED0 + i) for i in range(count)]
 
 

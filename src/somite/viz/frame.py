@@ -23,6 +23,7 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from ..errors import bad
+from ..limits import MIN_FPS
 from ..sim.config import CONTROL_HZ, VOXEL_SIDE
 from ..sim.terrain import Terrain
 from .camera import View, follow_view
@@ -250,8 +251,8 @@ def _paint_text(draw, view: View, recording: Recording, step: int) -> None:
 def frame_steps(n_steps: int, fps: float) -> np.ndarray:
     """Control steps shown by a video at ``fps`` (<= 60): round(duration * fps) frames, frame k
     showing time k / fps; at 30 fps every other step."""
-    if not 0 < fps <= CONTROL_HZ:
-        raise bad("fps", fps, f"must be in (0, {CONTROL_HZ:g}] (the control rate)")
+    if not MIN_FPS <= fps <= CONTROL_HZ:
+        raise bad("fps", fps, f"must be in [{MIN_FPS:g}, {CONTROL_HZ:g}] (the control rate)")
     n_frames = max(1, int(round(n_steps * fps / CONTROL_HZ)))
     return np.minimum(np.round(np.arange(n_frames) * CONTROL_HZ / fps).astype(int), n_steps)
 

@@ -12,6 +12,7 @@ import uuid
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
+from .._io import check_output_file
 from ..errors import bad
 
 
@@ -22,7 +23,7 @@ def check_output(path: str | os.PathLike, formats: Sequence[str]) -> Path:
         raise bad("out", str(path), f"unknown extension; use one of {list(formats)}")
     if not path.parent.is_dir():
         raise bad("out", str(path), "its folder does not exist")
-    return path
+    return check_output_file(path)
 
 
 @contextlib.contextmanager

@@ -1,0 +1,36 @@
+"""The documented limits on sizes a user may ask for, checked where each value is built.
+
+Each bound is far beyond the paper's values (30 s episodes, 96 robots, 3000 generations, bodies
+of at most 10 voxels a side, 10 validation terrains) and far below what would take a machine's
+memory or days of computing: a value past one is a one-line error, not a hang.
+"""
+
+from __future__ import annotations
+
+from .errors import bad
+
+MAX_DURATION = 600.0
+"""An episode's length [s] (the paper's: 30 s)."""
+MAX_POPULATION = 10_000
+MAX_GENERATIONS = 1_000_000
+MAX_EVALUATIONS = 1_000
+"""Terrains per fitness evaluation."""
+MAX_SHAPE_SIDE = 32
+"""Voxels along either side of a body's grid."""
+MAX_VALIDATION = 1_000
+"""Validation terrains."""
+MAX_FRAMES = 1_000
+"""Tiles of a time-lapse strip."""
+MIN_FPS = 1.0
+MAX_WEIGHT = 1e100
+"""An edge's weight or bias (evolved ones stay within a few units): sums over any genome's
+edges stay finite."""
+
+
+def at_most(field: str, value, limit) -> None:
+    """Refuse ``value`` above ``limit`` (the documented maximum of ``field``)."""
+    if value > limit:
+        raise bad(field, value, f"must be at most {limit:g} (somite.limits)")
+MAX_INPUT_BYTES = 256 * 2**20
+"""A file somite reads (genome, module, partition, checkpoint, configuration): 256 MiB; a
+checkpoint of the paper's population is well under 1 MiB."""

@@ -10,8 +10,8 @@ terrains are 10000..10009; these are 20000..20029), with the simulator preset th
     python reports/preset_variants.py analyse  # JSON on stdout (and reports/preset-variants.json)
     python reports/preset_variants.py table    # the markdown tables of that JSON
 
-Run directories live in /work/runs-9x (outside git; $PRESET_VARIANTS_RUNS overrides); a finished run is skipped, an interrupted
-one resumed from its checkpoint.
+Run directories live in runs/preset-variants (ignored by git; $PRESET_VARIANTS_RUNS
+overrides); a finished run is skipped, an interrupted one resumed from its checkpoint.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ import numpy as np
 
 from somite.analysis.stats import load_run, mann_whitney, pairwise_mann_whitney, to_json
 
-RUNS = Path(os.environ.get("PRESET_VARIANTS_RUNS", "/work/runs-9x"))
+RUNS = Path(os.environ.get("PRESET_VARIANTS_RUNS", "runs/preset-variants"))
 HERE = Path(__file__).resolve().parent
 SHAPES = ("worm", "biped")
 SEEDS = range(5)
@@ -37,7 +37,8 @@ UNSEEN = [20000 + i for i in range(30)]
 BUDGET = POPULATION * (GENERATIONS + 1)
 """Simulations of a run without parent re-evaluation (the first population and 200 broods)."""
 VARIANTS = {
-    "paper": {"preset": "paper"},
+    # Explicit: the default of reevaluate_parents changed to True after these runs.
+    "paper": {"preset": "paper", "reevaluate_parents": False},
     "paper+reeval": {"preset": "paper", "reevaluate_parents": True},
     "original-code": {"preset": "original-code"},
     "original-code-noreeval": {"preset": "original-code", "reevaluate_parents": False},
@@ -232,9 +233,9 @@ def markdown(report: dict) -> str:
                          f"| {at}: {cell(v['equal_budget_unseen'])} |"
                          if v["runs"] else f"| `{name}` | 0 | - | - | - | - | - |")
         lines += ["", "| pair (unseen) | p | pair (logged) | p |", "|---|---|---|---|"]
-        for t, l in zip(data["tests_unseen"], data["tests_logged"]):
+        for t, g in zip(data["tests_unseen"], data["tests_logged"]):
             lines.append(f"| `{t['a']}` vs `{t['b']}` | {_p(t['p'])} "
-                         f"| `{l['a']}` vs `{l['b']}` | {_p(l['p'])} |")
+                         f"| `{g['a']}` vs `{g['b']}` | {_p(g['p'])} |")
         lines += ["", "| factor (unseen means, 10 runs vs 10) | with | without | p "
                   f"| at {BUDGET} evaluations: with | without | p |",
                   "|---|---|---|---|---|---|---|"]

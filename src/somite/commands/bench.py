@@ -19,7 +19,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..errors import bad
 
     if args.robots < 4:
         raise bad("robots", args.robots, "must be at least 4")

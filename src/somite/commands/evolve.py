@@ -51,7 +51,8 @@ def add_evolution_options(parser: argparse.ArgumentParser) -> None:
                         "default, as the authors' code; --no-reevaluate-parents: Algorithm 1 "
                         "as printed, each parent keeps its one evaluation)")
     parser.add_argument("--checkpoint-every", type=int)
-    parser.add_argument("--resume", action="store_true", help="continue from the last checkpoint (a run killed before its first "
+    parser.add_argument("--resume", action="store_true",
+                        help="continue from the last checkpoint (a run killed before its first "
                         "one starts again: the same run)")
     parser.add_argument("--force", action="store_true", help="overwrite an existing run")
     add_options(parser, "quiet")

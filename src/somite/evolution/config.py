@@ -6,7 +6,6 @@ What a *run* needs on top (body, seed, generations, terrains, episodes, checkpoi
 
 from __future__ import annotations
 
-import math
 import sys
 from dataclasses import dataclass, field, fields, replace
 

@@ -15,9 +15,9 @@ from pathlib import Path
 
 from .._io import read_text
 from ..errors import bad
-from ..limits import MAX_EVALUATIONS, MAX_GENERATIONS, at_most
 from ..evolution.config import GAConfig, check_types
 from ..evolution.operators import OperatorConfig
+from ..limits import MAX_EVALUATIONS, MAX_GENERATIONS, at_most
 from ..sim.body import Body
 from ..sim.config import PRESETS as SIM_PRESETS
 from ..tasks.distributions import parse_distribution

@@ -35,7 +35,6 @@ from pathlib import Path
 from .._io import check_output_folder, read_json, read_text, write_atomic
 from ..brain.genome import Genome
 from ..errors import bad
-from ..evolution.config import GAConfig
 from ..evolution.ea import GraphEA
 from ..sim.body import Body, Shape
 from .config import RunConfig, resolve

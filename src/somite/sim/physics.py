@@ -34,21 +34,15 @@ def rest_length_factor(actuation: float, contract: float, expand: float) -> floa
 def set_rest_lengths(robot, scratch, actuation, params):
     """``scratch.rest``: the rest length of each spring for the voxels' current actuation
     (V,), the mean over its owners."""
-    n_voxels = robot.n_voxels
-    n_springs = robot.n_springs
-    owners = robot.owners
-    rest0 = robot.rest0
     factor = scratch.factor
-    rest = scratch.rest
-    contract = params.contract
-    expand = params.expand
-    for v in range(n_voxels):
-        factor[v] = rest_length_factor(actuation[v], contract, expand)
-    for s in range(n_springs):
+    for v in range(robot.n_voxels):
+        factor[v] = rest_length_factor(actuation[v], params.contract, params.expand)
+    owners = robot.owners
+    for s in range(robot.n_springs):
         f = factor[owners[s, 0]]
         if owners[s, 1] >= 0:
             f = 0.5 * (f + factor[owners[s, 1]])
-        rest[s] = rest0[s] * f
+        scratch.rest[s] = robot.rest0[s] * f
 
 
 @njit(inline="always")

@@ -31,6 +31,16 @@ def print_json(data) -> None:
     sys.stdout.write("\n")
 
 
+def warn(prog: str, message: str) -> None:
+    """A warning: one line on stderr, beside a result that is still given."""
+    sys.stderr.write(f"{prog}: warning: {message}\n")
+
+
+NON_FINITE = ("a controller output or the physics state was NaN or infinite (actuation is "
+              "clamped to [-1, 1], NaN as -1; the physics stops the episode)")
+"""What a non-zero ``non_finite`` means, for the warnings of the commands that report it."""
+
+
 def add_genome(parser: argparse.ArgumentParser, name: str = "genome", role: str = "") -> None:
     """A positional genome argument, read by :func:`load_genome`; ``role`` says whose it is."""
     what = f"{role}: " if role else ""

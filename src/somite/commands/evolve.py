@@ -10,7 +10,7 @@ from ..evolution.ea import GraphEA
 from ..experiments.config import RunConfig, load_toml, resolve
 from ..experiments.runner import RunDirectory, evolve
 from ..tasks.distributions import DISTRIBUTION_HELP
-from .common import add_options, finite_float
+from .common import NON_FINITE, add_options, finite_float
 
 HELP = "Evolve a graph controller with the paper's EA; writes logs, bests and checkpoints."
 
@@ -145,6 +145,11 @@ class progress_bar:
             best="nan" if math.isnan(best) else f"{best:.3f}",
             size=row["best_size"],
         )
+        if row.get("non_finite_episodes"):
+            # Printed above the bar; log.csv keeps the count (non_finite_episodes) too.
+            self.bar.console.print(
+                f"warning: generation {ea.generation}: {row['non_finite_episodes']} episodes: "
+                f"{NON_FINITE}", highlight=False, soft_wrap=True)
 
     def __exit__(self, *exc) -> None:
         if self.bar is not None:

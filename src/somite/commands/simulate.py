@@ -8,7 +8,14 @@ from ..brain.controllers import parse_controller
 from ..sim.body import Body
 from ..sim.terrain import TERRAIN_HELP, parse_terrain
 from ..tasks.locomotion import simulate
-from .common import add_options, add_simulation_options, print_json, simulation_config
+from .common import (
+    NON_FINITE,
+    add_options,
+    add_simulation_options,
+    print_json,
+    simulation_config,
+    warn,
+)
 
 HELP = "Simulate one robot and print how it went (v_x over [5 s, end], distance, ...)."
 
@@ -46,4 +53,6 @@ def run(args: argparse.Namespace) -> int:
             elif isinstance(value, list):
                 value = ", ".join(f"{v:.3f}" for v in value)
             print(f"{key:>21}: {value}")
+    if outcome.non_finite:
+        warn(args.prog, f"at {outcome.non_finite} control steps {NON_FINITE}")
     return 0 if outcome.finite else 1

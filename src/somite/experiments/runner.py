@@ -295,7 +295,8 @@ def step(ea: GraphEA, task, config: RunConfig) -> dict:
     """One generation: ask, evaluate with ``task`` on the EA's evaluation generator, tell, and
     (when due) the best's mean v_x on the validation terrains. Returns the log row."""
     genomes = ea.ask()
-    row = ea.tell(genomes, task.evaluate(genomes, rng=ea.rng_evaluation))
+    fitness, non_finite = task.evaluate_counted(genomes, rng=ea.rng_evaluation)
+    row = ea.tell(genomes, fitness, non_finite=int(non_finite.sum()))
     if config.validation_due(ea.generation):
         row["validation_velocity"] = task.validation_velocity(ea.best)
     return row

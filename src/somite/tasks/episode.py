@@ -66,6 +66,7 @@ class Trace(NamedTuple):
     max_speed: np.ndarray  # (B,) largest corner speed seen [m/s]
     min_area: np.ndarray  # (B,) smallest signed voxel area ratio seen (< 0: inverted)
     status: np.ndarray  # (B,) int32 STATUS_*
+    non_finite: np.ndarray  # (B,) int32 control steps with a non-finite actuation or state
     diagnostics: np.ndarray  # (B, N_DIAGNOSTICS) D_*, measured after SETTLE_STEPS
     pos: np.ndarray  # (B or 0, n_steps + 1, P, 2) corner positions [m]
     actuation: np.ndarray  # (B or 0, n_steps + 1, V)
@@ -83,6 +84,7 @@ def new_trace(n_robots: int, n_steps: int, system, record: bool) -> Trace:
         max_speed=np.zeros(n_robots),
         min_area=np.full(n_robots, np.inf),
         status=np.zeros(n_robots, dtype=np.int32),
+        non_finite=np.zeros(n_robots, dtype=np.int32),
         diagnostics=np.zeros((n_robots, N_DIAGNOSTICS)),
         pos=np.zeros((rows, n_steps + 1, n_points, 2)),
         actuation=np.zeros((rows, n_steps + 1, n_voxels)),
@@ -223,16 +225,24 @@ def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
         x_hi = max(x_hi, voxel_x[v])
     diagnostics = trace.diagnostics[b]
     diagnostics[D_MAX_GAP] = -np.inf
+    non_finite = 0
     for k in range(1, n_steps + 1):
         set_rest_lengths(robot, scratch, actuation, params)
         for _ in range(substeps):
             substep(robot, ground, scratch, pos, vel, params)
         enforce_min_lengths(robot, pos, vel)
         cx, cy = _centre_of_mass(n_points, mass, pos)
+        # The state's check, once per control step: any NaN or inf among the positions
+        # reaches the centre of mass, any among the velocities their sum (max() would keep
+        # the old value over a NaN).
+        squares = 0.0
         for p in range(n_points):
-            fastest = max(fastest, vel[p, 0] * vel[p, 0] + vel[p, 1] * vel[p, 1])
-        if not (math.isfinite(cx) and math.isfinite(cy) and math.isfinite(fastest)):
+            square = vel[p, 0] * vel[p, 0] + vel[p, 1] * vel[p, 1]
+            squares += square
+            fastest = max(fastest, square)
+        if not (math.isfinite(cx) and math.isfinite(cy) and math.isfinite(squares)):
             trace.status[b] = STATUS_NONFINITE
+            non_finite += 1
             break
         trace.com[b, k, 0] = cx
         trace.com[b, k, 1] = cy
@@ -249,9 +259,15 @@ def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
               touch_hist, vel_hist, rays, ground.xs, ground.ys, ground.n, near, params, noise,
               readings)
         _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation, params)
+        # The physics clamps actuation to [-1, 1] (a NaN acts as -1): counted, not hidden.
+        for v in range(n_voxels):
+            if not math.isfinite(actuation[v]):
+                non_finite += 1
+                break
         if recording:
             _record(b, k, n_points, n_voxels, n_readings, pos, scratch.contact, actuation,
                     readings, trace)
+    trace.non_finite[b] = non_finite
     trace.max_speed[b] = math.sqrt(fastest)
     trace.min_area[b] = smallest
 

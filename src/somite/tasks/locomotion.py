@@ -57,6 +57,11 @@ class Outcome:
     """Share of the scored steps (after ``transient``) with that angle over 90 degrees."""
     max_height: float = math.nan
     """Highest that the robot's lowest corner got above the ground, after the first 2 s [m]."""
+    non_finite: int = 0
+    """Control steps at which a controller output (actuation) or the physics state (corner
+    positions, velocities) held a NaN or an infinity. The episode stops at the first
+    non-finite state (``finite`` False, v_x NaN); a non-finite actuation is clamped to [-1, 1]
+    by the physics (NaN as -1) and the episode goes on, so its v_x is not the controller's."""
 
     def to_dict(self) -> dict:
         return {
@@ -69,6 +74,7 @@ class Outcome:
             "max_tilt_deg": self.max_tilt_deg,
             "flipped_fraction": self.flipped_fraction,
             "max_height": self.max_height,
+            "non_finite": self.non_finite,
         }
 
 
@@ -149,6 +155,7 @@ def outcomes(trace: Trace, config: SimConfig) -> list[Outcome]:
                 max_tilt_deg=float(d[D_MAX_TILT]) if observed else math.nan,
                 flipped_fraction=float(d[D_FLIPPED]) / (end - start) if observed else math.nan,
                 max_height=float(d[D_MAX_GAP]) if observed else math.nan,
+                non_finite=int(trace.non_finite[b]),
             )
         )
     return result

@@ -101,10 +101,16 @@ class Locomotion:
         its own sensor-noise seed per episode, all from ``rng``: first the G*K terrains
         (genome by genome), then the G*K noise seeds. One batch for all of them.
         """
+        return self.evaluate_counted(genomes, rng)[0]
+
+    def evaluate_counted(self, genomes: Sequence[Genome],
+                         rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`evaluate`'s fitness (the same draws), and for each genome how many of its
+        episodes had a non-finite step (:attr:`~somite.tasks.locomotion.Outcome.non_finite`)."""
         genomes = self._check(genomes)
         n = len(genomes) * self.evaluations
         if n == 0:
-            return np.zeros(0)
+            return np.zeros(0), np.zeros(0, dtype=np.int64)
         terrains = self.terrains.sample(rng, n)
         noise_seeds = rng.integers(0, 2**32, n)
         arrays = [compile_genome(g) for g in genomes]
@@ -114,7 +120,8 @@ class Locomotion:
             [a for a in arrays for _ in range(repeat)], self.sim, noise_seeds,
         )
         velocities = np.array([o.velocity for o in outcomes]).reshape(len(genomes), repeat)
-        return mean_velocity(velocities, axis=1)
+        flagged = np.array([o.non_finite > 0 for o in outcomes]).reshape(len(genomes), repeat)
+        return mean_velocity(velocities, axis=1), flagged.sum(axis=1)
 
     def validate(self, genomes: Genome | Sequence[Genome]) -> np.ndarray:
         """v_x [m/s] on each fixed validation terrain: shape (T,) for one genome, (G, T) for a

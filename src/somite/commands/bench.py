@@ -6,6 +6,7 @@ import argparse
 
 from ..bench import bench
 from ..errors import bad
+from ..limits import MAX_POPULATION, at_most
 from .common import add_options, print_json
 
 HELP = "Time the simulation kernel (96 random ~200-element controllers, hilly, 30 s); JSON."
@@ -22,6 +23,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.robots < 4:
         raise bad("robots", args.robots, "must be at least 4")
+    at_most("robots", args.robots, MAX_POPULATION)
     if not args.duration > 0:
         raise bad("duration", args.duration, "must be positive")
     shapes = tuple(s for s in args.shapes.split(",") if s)

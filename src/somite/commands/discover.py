@@ -6,7 +6,7 @@ import argparse
 import csv
 import io
 
-from .._io import check_output_folder, write_atomic
+from .._io import check_output_folder, make_folder, write_atomic
 from ..brain.genome import Genome
 from ..modules.discovery import partition_around, rank_candidates, score
 from .common import add_options, load_genome
@@ -27,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
     ranked = rank_candidates(genome, args.b_min, args.b_max)
     best = ranked[0]
     partition = partition_around(genome.body.shape, best.voxels)
-    out.mkdir(parents=True, exist_ok=True)
+    make_folder(out)
     partition.save(
         out / "partition.json",
         genome=str(args.genome),

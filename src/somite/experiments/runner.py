@@ -32,7 +32,7 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
-from .._io import check_output_folder, read_json, read_text, write_atomic
+from .._io import check_output_folder, make_folder, read_json, read_text, write_atomic
 from ..brain.genome import Genome
 from ..errors import bad
 from ..evolution.ea import GraphEA
@@ -121,10 +121,7 @@ class RunDirectory:
         manager that releases it."""
         check_output_folder(self.path)
         self._created = not self.path.exists()
-        try:
-            self.path.mkdir(parents=True, exist_ok=True)
-        except OSError as error:
-            raise bad("out", str(self.path), f"cannot create it ({error.strerror})") from None
+        make_folder(self.path)
         self.lock.acquire()
         return self
 

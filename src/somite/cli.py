@@ -11,7 +11,7 @@ import pkgutil
 import sys
 
 from . import commands
-from .errors import SomiteError
+from .errors import SomiteError, bad
 
 
 def command_names() -> list[str]:
@@ -54,6 +54,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        if getattr(args, "out", None) == "":
+            # Path("") is ".": an empty --out would write into the current folder.
+            raise bad("out", "", "is empty; name the file or folder to write")
         return int(args.handler(args) or 0)
     except SomiteError as error:
         sys.stderr.write(f"{args.prog}: error: {error}\n")

@@ -311,3 +311,15 @@ def test_a_killed_reoptimize_force_leaves_no_old_transfer_csv(tmp_path):
     assert not (tmp_path / "re" / "transfer.csv").exists()
     assert main([*args, "--resume"]) == 0
     assert (tmp_path / "re" / "transfer.csv").is_file()
+
+
+def test_a_left_over_output_check_file_is_the_run_s_own(tmp_path):
+    """A kill between creating and deleting the file that tries an output folder leaves
+    ``.somite-check.*``: neither --force nor --resume stumbles on it, --resume removes it."""
+    run = tmp_path / "run"
+    assert main([*SHORT, "--out", str(run)]) == 0
+    (run / ".somite-check.abc123").write_text("")
+    assert main([*SHORT, "--out", str(run), "--force"]) == 0
+    (run / ".somite-check.abc123").write_text("")
+    assert main([*SHORT, "--out", str(run), "--resume", "--generations", "4"]) == 0
+    assert not (run / ".somite-check.abc123").exists()

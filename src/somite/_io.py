@@ -50,13 +50,17 @@ def make_folder(path: str | os.PathLike, field: str = "out") -> Path:
     return path
 
 
+CHECK_PREFIX = ".somite-check."
+"""The name of the file :func:`_try_writing` creates and deletes at once (a kill may leave it)."""
+
+
 def _try_writing(folder: Path, field: str, shown: Path) -> None:
     """Create and delete a file in ``folder``: ``os.access`` does not know every refusal (root
     in /proc or /sys, some network file systems), a try does."""
     from .errors import bad
 
     try:
-        handle, name = tempfile.mkstemp(prefix=".somite-check.", dir=folder)
+        handle, name = tempfile.mkstemp(prefix=CHECK_PREFIX, dir=folder)
     except OSError as error:
         raise bad(field, str(shown), f"cannot write in {folder} ({error.strerror or error})"
                   ) from None

@@ -32,7 +32,14 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
-from .._io import check_output_folder, make_folder, read_json, read_text, write_atomic
+from .._io import (
+    CHECK_PREFIX,
+    check_output_folder,
+    make_folder,
+    read_json,
+    read_text,
+    write_atomic,
+)
 from ..brain.genome import Genome
 from ..errors import bad
 from ..evolution.ea import GraphEA
@@ -48,6 +55,15 @@ MANIFEST_FORMAT = "somite-run-manifest"
 """``manifest.json`` lists the files a run wrote: the only ones ``--force`` deletes."""
 _TEMPORARY = re.compile(r"\.(?P<name>.+)\.\d+\.[0-9a-f]{8}\.tmp")
 """A temporary file of :func:`somite._io.write_atomic` (``.NAME.PID.RAND.tmp``)."""
+
+
+def _is_temporary(name: str) -> bool:
+    """A temporary file of a run file's write, or of an output folder's check."""
+    match = _TEMPORARY.fullmatch(name)
+    return bool(match and match["name"] in (*RUN_FILES, MANIFEST)) or name.startswith(
+        CHECK_PREFIX)
+
+
 CHECKPOINT_FORMAT = "somite-checkpoint"
 CHECKPOINT_VERSION = 3
 """Version 3 (issue 10): the checkpoint holds its run's fingerprint (:func:`run_fingerprint`).
@@ -147,8 +163,7 @@ class RunDirectory:
         """Delete the temporary files a killed writer of run files left (call it locked:
         then no live writer owns them)."""
         for path in self.path.iterdir():
-            match = _TEMPORARY.fullmatch(path.name)
-            if match and match["name"] in (*RUN_FILES, MANIFEST) and path.is_file():
+            if _is_temporary(path.name) and path.is_file():
                 path.unlink(missing_ok=True)
 
     def manifest(self) -> list[str]:
@@ -185,8 +200,7 @@ class RunDirectory:
         if listed:
             own.add(MANIFEST)
         for path in sorted(self.path.iterdir()):
-            match = _TEMPORARY.fullmatch(path.name)
-            if match and match["name"] in (*RUN_FILES, MANIFEST):
+            if _is_temporary(path.name):
                 continue
             if path.name not in own or path.is_symlink() or not path.is_file():
                 return path.name

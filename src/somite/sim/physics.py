@@ -31,18 +31,19 @@ def rest_length_factor(actuation: float, contract: float, expand: float) -> floa
 
 
 @njit
-def set_rest_lengths(robot, scratch, actuation, params):
-    """``scratch.rest``: the rest length of each spring for the voxels' current actuation
-    (V,), the mean over its owners."""
-    factor = scratch.factor
-    for v in range(robot.n_voxels):
-        factor[v] = rest_length_factor(actuation[v], params.contract, params.expand)
-    owners = robot.owners
-    for s in range(robot.n_springs):
+def set_rest_lengths(n_voxels, n_springs, owners, rest0, actuation, contract, expand, factor,
+                     rest):
+    """``rest``: the rest length of each spring for the voxels' current ``actuation`` (V,), the
+    mean over its owners; ``factor`` (V,) is work space. Arrays, not the :class:`Robot` and
+    :class:`Scratch` tuples: this function is not inlined, and passing the tuples costs 1-2% of
+    the kernel's time."""
+    for v in range(n_voxels):
+        factor[v] = rest_length_factor(actuation[v], contract, expand)
+    for s in range(n_springs):
         f = factor[owners[s, 0]]
         if owners[s, 1] >= 0:
             f = 0.5 * (f + factor[owners[s, 1]])
-        scratch.rest[s] = robot.rest0[s] * f
+        rest[s] = rest0[s] * f
 
 
 @njit(inline="always")
@@ -96,7 +97,7 @@ def integrate(robot, scratch, pos, vel, params):
         fxs[s] = f * dxs[s]
         fys[s] = f * dys[s]
     if n_short > 0:
-        enforce_min_lengths(robot, pos, vel)
+        enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel)
     for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
@@ -140,15 +141,13 @@ def push_apart(a, b, length, limit, dx, dy, inv_mass, pos, vel):
 
 
 @njit
-def enforce_min_lengths(robot, pos, vel):
+def enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel):
     """Hard limit: no side shorter than ``min_side_ratio`` of its rest length, no diagonal
     than ``min_diagonal_ratio``, so no controller can collapse a voxel (inversion is
     :func:`keep_orientation`'s). Also run after the last substep of each control step, so that
-    what is sensed and recorded always obeys the limit."""
-    ends = robot.ends
-    min_length = robot.min_length
-    inv_mass = robot.inv_mass
-    for s in range(robot.n_springs):
+    what is sensed and recorded always obeys the limit. Arrays, not the :class:`Robot` tuple,
+    as for :func:`set_rest_lengths`."""
+    for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
         dx = pos[b, 0] - pos[a, 0]

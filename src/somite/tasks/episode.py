@@ -224,10 +224,12 @@ def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
     diagnostics = trace.diagnostics[b]
     diagnostics[D_MAX_GAP] = -np.inf
     for k in range(1, n_steps + 1):
-        set_rest_lengths(robot, scratch, actuation, params)
+        set_rest_lengths(n_voxels, robot.n_springs, robot.owners, robot.rest0, actuation,
+                         params.contract, params.expand, scratch.factor, scratch.rest)
         for _ in range(substeps):
             substep(robot, ground, scratch, pos, vel, params)
-        enforce_min_lengths(robot, pos, vel)
+        enforce_min_lengths(robot.n_springs, robot.ends, robot.min_length, robot.inv_mass, pos,
+                            vel)
         cx, cy = _centre_of_mass(n_points, mass, pos)
         for p in range(n_points):
             fastest = max(fastest, vel[p, 0] * vel[p, 0] + vel[p, 1] * vel[p, 1])

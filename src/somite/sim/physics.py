@@ -399,12 +399,11 @@ def keep_orientation(robot, pos, vel):
     """No voxel turns inside out: each voxel's signed area stays at least ``min_area``.
 
     Length limits cannot do it (a mirrored voxel has the same side and diagonal lengths).
-    Where a voxel is smaller, its corners move along the area's gradient, weighted by inverse
-    mass, to restore ``robot.min_area``, and the corners' shrinking rate along it is removed.
+    The check is inlined; the rare correction (:func:`restore_area`) is not, which keeps the
+    substep's code small.
     """
     corners = robot.corners
     min_area = robot.min_area
-    inv_mass = robot.inv_mass
     for v in range(robot.n_voxels):
         sw, se, ne, nw = voxel_corners(corners, v)
         # Twice the signed area: the cross product of the diagonals.
@@ -412,35 +411,46 @@ def keep_orientation(robot, pos, vel):
         d1y = pos[ne, 1] - pos[sw, 1]
         d2x = pos[nw, 0] - pos[se, 0]
         d2y = pos[nw, 1] - pos[se, 1]
-        area = 0.5 * (d1x * d2y - d1y * d2x)
-        if area >= min_area:
-            continue
-        # dA/dp for each corner: half the perpendicular of the other diagonal.
-        g_sw_x, g_sw_y = -0.5 * d2y, 0.5 * d2x
-        g_ne_x, g_ne_y = 0.5 * d2y, -0.5 * d2x
-        g_se_x, g_se_y = 0.5 * d1y, -0.5 * d1x
-        g_nw_x, g_nw_y = -0.5 * d1y, 0.5 * d1x
-        w_sw = inv_mass[sw]
-        w_se = inv_mass[se]
-        w_ne = inv_mass[ne]
-        w_nw = inv_mass[nw]
-        norm = (w_sw * (g_sw_x * g_sw_x + g_sw_y * g_sw_y)
-                + w_ne * (g_ne_x * g_ne_x + g_ne_y * g_ne_y)
-                + w_se * (g_se_x * g_se_x + g_se_y * g_se_y)
-                + w_nw * (g_nw_x * g_nw_x + g_nw_y * g_nw_y))
-        if norm < 1e-12:
-            continue
-        step = (min_area - area) / norm
-        rate = (g_sw_x * vel[sw, 0] + g_sw_y * vel[sw, 1] + g_ne_x * vel[ne, 0]
-                + g_ne_y * vel[ne, 1] + g_se_x * vel[se, 0] + g_se_y * vel[se, 1]
-                + g_nw_x * vel[nw, 0] + g_nw_y * vel[nw, 1])
-        stop = max(0.0, -rate) / norm
-        for p, gx, gy, w in ((sw, g_sw_x, g_sw_y, w_sw), (se, g_se_x, g_se_y, w_se),
-                             (ne, g_ne_x, g_ne_y, w_ne), (nw, g_nw_x, g_nw_y, w_nw)):
-            pos[p, 0] += step * w * gx
-            pos[p, 1] += step * w * gy
-            vel[p, 0] += stop * w * gx
-            vel[p, 1] += stop * w * gy
+        if 0.5 * (d1x * d2y - d1y * d2x) < min_area:
+            restore_area(sw, se, ne, nw, min_area, robot.inv_mass, pos, vel)
+
+
+@njit
+def restore_area(sw, se, ne, nw, min_area, inv_mass, pos, vel):
+    """Move the corners of a voxel smaller than ``min_area`` along its area's gradient,
+    weighted by inverse mass, to restore ``min_area``, and remove the corners' shrinking
+    rate along it."""
+    d1x = pos[ne, 0] - pos[sw, 0]
+    d1y = pos[ne, 1] - pos[sw, 1]
+    d2x = pos[nw, 0] - pos[se, 0]
+    d2y = pos[nw, 1] - pos[se, 1]
+    area = 0.5 * (d1x * d2y - d1y * d2x)
+    # dA/dp for each corner: half the perpendicular of the other diagonal.
+    g_sw_x, g_sw_y = -0.5 * d2y, 0.5 * d2x
+    g_ne_x, g_ne_y = 0.5 * d2y, -0.5 * d2x
+    g_se_x, g_se_y = 0.5 * d1y, -0.5 * d1x
+    g_nw_x, g_nw_y = -0.5 * d1y, 0.5 * d1x
+    w_sw = inv_mass[sw]
+    w_se = inv_mass[se]
+    w_ne = inv_mass[ne]
+    w_nw = inv_mass[nw]
+    norm = (w_sw * (g_sw_x * g_sw_x + g_sw_y * g_sw_y)
+            + w_ne * (g_ne_x * g_ne_x + g_ne_y * g_ne_y)
+            + w_se * (g_se_x * g_se_x + g_se_y * g_se_y)
+            + w_nw * (g_nw_x * g_nw_x + g_nw_y * g_nw_y))
+    if norm < 1e-12:
+        return
+    step = (min_area - area) / norm
+    rate = (g_sw_x * vel[sw, 0] + g_sw_y * vel[sw, 1] + g_ne_x * vel[ne, 0]
+            + g_ne_y * vel[ne, 1] + g_se_x * vel[se, 0] + g_se_y * vel[se, 1]
+            + g_nw_x * vel[nw, 0] + g_nw_y * vel[nw, 1])
+    stop = max(0.0, -rate) / norm
+    for p, gx, gy, w in ((sw, g_sw_x, g_sw_y, w_sw), (se, g_se_x, g_se_y, w_se),
+                         (ne, g_ne_x, g_ne_y, w_ne), (nw, g_nw_x, g_nw_y, w_nw)):
+        pos[p, 0] += step * w * gx
+        pos[p, 1] += step * w * gy
+        vel[p, 0] += stop * w * gx
+        vel[p, 1] += stop * w * gy
 
 
 @njit(inline="always")

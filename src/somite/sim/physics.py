@@ -30,7 +30,7 @@ def rest_length_factor(actuation: float, contract: float, expand: float) -> floa
     return 1.0 + (expand - 1.0) * (-a)
 
 
-@njit
+@njit(_nrt=False)
 def set_rest_lengths(n_voxels, n_springs, owners, rest0, actuation, contract, expand, factor,
                      rest):
     """``rest``: the rest length of each spring for the voxels' current ``actuation`` (V,), the
@@ -115,7 +115,7 @@ def integrate(robot, scratch, pos, vel, params):
         force[p, 1] = 0.0
 
 
-@njit
+@njit(_nrt=False)
 def push_apart(a, b, length, limit, dx, dy, inv_mass, pos, vel):
     """Move points a, b apart (mass-weighted) to distance ``limit``; stop their closing."""
     if length < 1e-9:
@@ -140,7 +140,7 @@ def push_apart(a, b, length, limit, dx, dy, inv_mass, pos, vel):
         vel[b, 1] -= ny * impulse * wb
 
 
-@njit
+@njit(_nrt=False)
 def enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel):
     """Hard limit: no side shorter than ``min_side_ratio`` of its rest length, no diagonal
     than ``min_diagonal_ratio``, so no controller can collapse a voxel (inversion is
@@ -193,7 +193,7 @@ def segment_near(xs, n, x, guess) -> int:
     return i
 
 
-@njit
+@njit(_nrt=False)
 def ground_height(xs, ys, n, x, guess) -> float:
     """Height [m] of the terrain at x (``guess``: a segment index near x)."""
     i = segment_near(xs, n, x, guess)
@@ -465,3 +465,17 @@ def substep(robot, ground, scratch, pos, vel, params):
     segment[robot.n_points] = first
     ground_contact(robot, ground, scratch, pos, vel, first, hi_x + params.radius, params)
     side_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params)
+
+
+@njit(_nrt=False)
+def advance(robot, ground, scratch, pos, vel, params, substeps):
+    """One control step of physics: ``substeps`` substeps under the rest lengths of
+    ``scratch.rest``, then the length limits, so that what is sensed obeys them.
+
+    Compiled without Numba's reference counting (``_nrt=False``: nothing here allocates), as
+    every field read from the per-robot tuples would otherwise cost an atomic increment and
+    decrement on each substep.
+    """
+    for _ in range(substeps):
+        substep(robot, ground, scratch, pos, vel, params)
+    enforce_min_lengths(robot.n_springs, robot.ends, robot.min_length, robot.inv_mass, pos, vel)

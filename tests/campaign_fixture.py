@@ -104,7 +104,7 @@ def build_campaign(root: Path) -> Path:
         for omega in ("10", "0.1"):
             for i in OMEGA_SEEDS:
                 j = OMEGA_SEEDS[(i + 1) % len(OMEGA_SEEDS)]
-                b.reassembly("omega-reassembly", f"{shape}-omega-{omega}-s{i}+s{j}",
+                b.reassembly("omega-reassembly", f"omega-{omega}-{shape}-s{i}+s{j}",
                              [f"omega-{omega}/{shape}-s{i}", f"omega-{omega}/{shape}-s{j}"])
     for shape in SHAPES:
         for seed in SEEDS:

@@ -6,6 +6,8 @@ from __future__ import annotations
 import csv
 import json
 import shutil
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -45,8 +47,8 @@ def _finished(campaign, experiment, prefix):
                   if p.name.startswith(prefix) and (p / "done.json").is_file())
 
 
-def test_every_section_and_figure_is_written(report):
-    out, data = report
+def check_sections(out, data) -> None:
+    """Every section in index.md, every figure listed written (PNG and SVG) and linked."""
     text = (out / "index.md").read_text()
     for heading in SECTIONS:
         assert heading in text, heading
@@ -60,14 +62,10 @@ def test_every_section_and_figure_is_written(report):
     for name in listed:
         assert (out / "figures" / name).stat().st_size > 0
         assert f"figures/{name}" in text
-    strips = {(s["experiment"], s["shape"]) for s in data["timelapse"]}
-    assert ("rq1", "biped") in strips and ("rq2-homo", "worm") in strips
-    for strip in data["timelapse"]:
-        assert (out / "figures" / strip["file"]).is_file()
 
 
-def test_table1_final_velocity_is_the_median_of_the_logs_last_rows(campaign, report):
-    _, data = report
+def check_table1(campaign, data) -> None:
+    """Table 1's medians are those of the finished runs' log.csv rows."""
     rows = {(r["experiment"], r["shape"]): r for r in data["table1"]}
     for experiment in ("rq1", "ablation", "omega-10", "omega-0.1"):
         for shape in ("biped", "worm"):
@@ -84,20 +82,18 @@ def test_table1_final_velocity_is_the_median_of_the_logs_last_rows(campaign, rep
     assert rows["ablation", "worm"]["paper"] is None
 
 
-def test_p_values_are_scipys_on_the_final_velocities(campaign, report):
-    _, data = report
+def check_p_values(campaign, data) -> None:
+    """Figure 5's p-values are scipy's on the logs' last rows."""
     for shape in ("biped", "worm"):
         finals = {e: [float(_log(f)[-1]["best_velocity"]) for f in _finished(campaign, e, shape)]
                   for e in ("rq1", "ablation")}
         [test] = data["figure5"]["comparison"][shape]["logged"]["tests"]
         expected = mannwhitneyu(finals["rq1"], finals["ablation"], alternative="two-sided")
         assert (test["u"], test["p"]) == (float(expected.statistic), float(expected.pvalue))
-    tests = data["figure11"]["comparison"]["worm"]["logged"]["tests"]
-    assert len(tests) == 3  # omega 0.1, 1 and 10, pairwise
 
 
-def test_validation_reruns_agree_with_the_runs_own_validation(campaign, report):
-    _, data = report
+def check_validation(campaign, data, terrains: int) -> None:
+    """The re-run of each rq1 best is the run's own validation of its last generation."""
     robots = {r["task"]: r for r in data["validation"]["robots"]}
     for folder in _finished(campaign, "rq1", ""):
         last = _log(folder)[-1]
@@ -105,8 +101,32 @@ def test_validation_reruns_agree_with_the_runs_own_validation(campaign, report):
         assert robot["logged"] == float(last["best_velocity"])
         assert robot["validation"] == float(last["validation_velocity"])
         assert robot["validation"] == float(np.mean(robot["velocities"]))
-        assert len(robot["velocities"]) == 10
+        assert len(robot["velocities"]) == terrains
     assert any(r["task"].endswith("-reopt") for r in robots.values())
+
+
+def test_every_section_and_figure_is_written(report):
+    out, data = report
+    check_sections(out, data)
+    strips = {(s["experiment"], s["shape"]) for s in data["timelapse"]}
+    assert ("rq1", "biped") in strips and ("rq2-homo", "worm") in strips
+    for strip in data["timelapse"]:
+        assert (out / "figures" / strip["file"]).is_file()
+
+
+def test_table1_final_velocity_is_the_median_of_the_logs_last_rows(campaign, report):
+    check_table1(campaign, report[1])
+
+
+def test_p_values_are_scipys_on_the_final_velocities(campaign, report):
+    _, data = report
+    check_p_values(campaign, data)
+    tests = data["figure11"]["comparison"]["worm"]["logged"]["tests"]
+    assert len(tests) == 3  # omega 0.1, 1 and 10, pairwise
+
+
+def test_validation_reruns_agree_with_the_runs_own_validation(campaign, report):
+    check_validation(campaign, report[1], 10)
 
 
 def test_rho_and_eta_are_those_of_the_task_folders(campaign, report):
@@ -196,3 +216,31 @@ def test_bad_campaign_is_one_line_and_exit_2(tmp_path, capsys, damage, field):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"error: {field}=" in err
     assert not (tmp_path / "r").exists()
+
+
+try:
+    import somite.commands.campaign  # noqa: F401 - it comes with `somite campaign run`
+except ImportError:
+    CAMPAIGN_RUN = False
+else:
+    CAMPAIGN_RUN = True
+
+
+@pytest.mark.skipif(not CAMPAIGN_RUN, reason="needs `somite campaign run` (branch issue-11-run)")
+def test_campaign_run_smoke_then_report(tmp_path):
+    campaign = tmp_path / "smoke"
+    run = subprocess.run([sys.executable, "-m", "somite.cli", "campaign", "run", "smoke",
+                          "--out", str(campaign), "--workers", "1", "--threads", "1",
+                          "--quiet"], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    out = tmp_path / "report"
+    assert main(["report", str(campaign), "--out", str(out), "--no-timelapse", "--quiet"]) == 0
+    data = json.loads((out / "report.json").read_text())
+    assert all(s["done"] == s["tasks"] > 0 and not s["missing"]
+               for s in data["status"]["experiments"].values())
+    check_sections(out, data)
+    check_table1(campaign, data)
+    check_p_values(campaign, data)
+    check_validation(campaign, data, 10)
+    for figure in ("figure7", "figure8", "rq3_reassembly"):
+        assert set(data[figure]["curves"]) == {"biped", "worm"}

@@ -8,6 +8,7 @@ written atomically; a task that is not finished, or cannot be read, is listed as
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from .._io import check_output_folder, write_atomic
@@ -149,10 +150,11 @@ def _validation(rows: list[dict], n_terrains: int, folder: Path) -> dict:
     table = []
     for name, members in summary.items():
         logged = describe([m["logged"] for m in members])
-        validated = describe([m["validation"] for m in members])
+        finite = [m["validation"] for m in members if math.isfinite(m["validation"])]
         table.append({"group": name, "experiment": members[0]["experiment"],
                       "shape": members[0]["shape"], "n": len(members),
-                      "logged": logged, "validation": validated})
+                      "logged": logged, "validation": describe(finite),
+                      "validation_non_finite": len(members) - len(finite)})
     files = _save(figures.validation_figure, rows, folder, "validation") if rows else []
     return {"terrains": n_terrains, "robots": rows, "summary": table, "files": files}
 

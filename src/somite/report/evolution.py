@@ -78,7 +78,11 @@ def table1(campaign: Campaign, loaded: Loaded, reruns: dict[str, dict]) -> list[
                 row[when] = {name: describe(_column(runs, column, index)) for name, column in (
                     ("nodes", "best_nodes"), ("edges", "best_edges"), ("size", "best_size"),
                     ("velocity", "best_velocity"))}
-            row["validation"] = describe([reruns[i]["mean"] for i in runs if i in reruns])
+            # A robot that went non-finite on a validation terrain has no mean v_x: counted
+            # apart, so that one such robot does not hide the others' median.
+            means = np.array([reruns[i]["mean"] for i in runs if i in reruns])
+            row["validation"] = describe(means[np.isfinite(means)])
+            row["validation_non_finite"] = int(np.sum(~np.isfinite(means)))
             row["size_increase"] = _increase(row)
             row["paper"] = _paper_table1(experiment, shape)
             rows.append(row)

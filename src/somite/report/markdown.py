@@ -103,7 +103,9 @@ def _table1(report: dict) -> list[str]:
                      _n(row["generations"]["median"], 0),
                      _ms(i["nodes"], 1), _ms(i["edges"], 1), _ms(i["size"], 1),
                      _ms(i["velocity"]), _ms(f["nodes"], 1), _ms(f["edges"], 1),
-                     _ms(f["size"], 1), _ms(f["velocity"]), _ms(row["validation"]),
+                     _ms(f["size"], 1), _ms(f["velocity"]), _ms(row["validation"]) + (
+                         f" ({row['validation_non_finite']} non-finite)"
+                         if row["validation_non_finite"] else ""),
                      _n(row["size_increase"] * 100, 0) + " %"
                      if row["size_increase"] == row["size_increase"] else "n/a"])
         if row["paper"]:
@@ -245,10 +247,10 @@ def _validation(report: dict) -> list[str]:
     lines = ["## Beyond the paper: every final best on the validation terrains", "",
              f"Each run's final best re-run on the {data['terrains']} fixed validation terrains "
              "(mean v_x), beside its logged v_x (its training draw).", ""]
-    rows = [[s["experiment"], s["shape"], s["n"], _ms(s["logged"]), _ms(s["validation"])]
-            for s in data["summary"]]
-    lines += _table(["experiment", "shape", "robots", "logged v_x", "v_x on validation terrains"],
-                    rows)
+    rows = [[s["experiment"], s["shape"], s["n"], _ms(s["logged"]), _ms(s["validation"]),
+             s["validation_non_finite"]] for s in data["summary"]]
+    lines += _table(["experiment", "shape", "robots", "logged v_x", "v_x on validation terrains",
+                     "non-finite on a validation terrain"], rows)
     rows = [[r["task"], _n(r["logged"]), _n(r["validation"]), _n(r["logged_validation"])]
             for r in data["robots"]]
     lines += _table(["robot", "logged v_x", "validation v_x (re-run)",

@@ -181,6 +181,16 @@ def test_a_second_report_simulates_nothing_and_says_the_same(campaign, report):
     assert second["cache"] == {"genomes_simulated": 0, "strips_drawn": 0}
     assert {k: v for k, v in second.items() if k != "cache"} == {
         k: v for k, v in first.items() if k != "cache"}
+    # A damaged cache entry is simulated again, and gives the same numbers.
+    cache = out / "cache" / "validation.json"
+    saved = json.loads(cache.read_text())
+    key = next(iter(saved["entries"]))
+    saved["entries"][key] = [0.0]
+    cache.write_text(json.dumps(saved))
+    assert main(["report", str(campaign), "--out", str(out), "--quiet"]) == 0
+    third = json.loads((out / "report.json").read_text())
+    assert third["cache"] == {"genomes_simulated": 1, "strips_drawn": 0}
+    assert third["validation"] == first["validation"]
 
 
 def test_a_finished_task_that_cannot_be_read_is_shown_as_missing(campaign, tmp_path, capsys):

@@ -8,8 +8,6 @@ Runs are grouped per shape (biped, worm) and per experiment of the built-in camp
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 
 from ..analysis.stats import RunLog, describe, pairwise_mann_whitney
@@ -150,12 +148,6 @@ def final_comparison(found: Groups, reruns: dict[str, dict]) -> dict:
         validated = {label: [reruns[i]["mean"] for i in runs] for label, runs in labelled.items()}
         out[shape] = {"logged": compare(logged, ids), "validation": compare(validated, ids)}
     return out
-
-
-def runs_of(found: Groups) -> list[str]:
-    """Every task id in ``found``."""
-    return list(itertools.chain.from_iterable(
-        runs for labelled in found.values() for runs in labelled.values()))
 
 
 __all__ = ["FIGURE10", "FIGURE3", "FIGURE5", "compare", "curves", "final_comparison", "groups",

@@ -45,10 +45,6 @@ class Loaded:
     discovery: dict[str, dict] = field(default_factory=dict)
     broken: dict[str, str] = field(default_factory=dict)
 
-    def usable(self, task: Task) -> bool:
-        """Finished and readable."""
-        return task.done and task.id not in self.broken
-
 
 def load(campaign: Campaign) -> Loaded:
     """Read every finished task of ``campaign``."""

@@ -18,7 +18,7 @@ from somite.cli import main
 from .campaign_fixture import UNFINISHED, build_campaign
 
 SECTIONS = ("## Tasks", "## Table 1", "## Figure 3", "## Figure 10", "## Figure 5",
-            "## Figure 11", "### Figure 7", "### Figure 8", "## Figure 9", "## Figures 12",
+            "## Figure 11", "### Figure 7", "### Figure 8", "## Figure 9", "## Figure 12",
             "## Beyond the paper: reassembly along the discovered modules",
             "## Beyond the paper: every final best on the validation terrains",
             "## Time-lapse")

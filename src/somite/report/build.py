@@ -14,7 +14,8 @@ from pathlib import Path
 from .._io import check_output_folder, write_atomic
 from ..analysis.stats import describe, to_json
 from ..tasks.validation import check_count
-from . import evolution, figures, paper, reassembly
+from ..viz import report_figures as figures
+from . import evolution, paper, reassembly
 from .campaign import read_campaign
 from .discovery import discovery_rows, discovery_summary
 from .load import load, shape_name

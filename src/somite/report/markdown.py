@@ -221,7 +221,7 @@ def _eta(report: dict) -> list[str]:
 def _discovery(report: dict) -> list[str]:
     data = report["discovery"]
     claim = data["summary"]["paper"]
-    lines = ["## Figures 12 and 13: automatic module discovery", "",
+    lines = ["## Figure 12: automatic module discovery", "",
              "Each evolved best partitioned around its most compact module (eq. 5; red in the "
              "figure). A module *spans* when it holds voxels of the body's first and last "
              f"column. {_claim(claim)}", ""]

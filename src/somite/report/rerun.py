@@ -17,7 +17,6 @@ from collections.abc import Mapping
 from dataclasses import asdict
 from pathlib import Path
 
-from .. import __version__
 from .._io import write_atomic
 from ..analysis.stats import RunLog
 from ..brain.genome import Genome
@@ -39,8 +38,10 @@ def episode_settings(run: RunLog) -> SimConfig:
 def cache_key(genome: Genome, sim: SimConfig, terrains: list[str]) -> str:
     """What decides a re-run's numbers, hashed (somite's version included: the simulator may
     change between versions)."""
+    import somite
+
     text = json.dumps({"genome": genome.to_compact(), "sim": asdict(sim), "terrains": terrains,
-                       "somite": __version__}, sort_keys=True)
+                       "somite": somite.__version__}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()
 
 

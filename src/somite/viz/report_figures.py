@@ -1,4 +1,5 @@
-"""The report's figures, each written as PNG and SVG (atomically), one panel per shape.
+"""The figures of ``somite report`` (:mod:`somite.report`), each written as PNG and SVG
+(atomically), one panel per shape.
 
 The curves and boxes are drawn by :mod:`somite.viz.plots` (the same code as ``somite plot``),
 so a figure of the report and one of ``somite plot`` on the same runs agree.
@@ -10,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..viz.output import atomic_output
-from ..viz.plots import COLOURS, plot_curves, plot_samples, plot_validation
+from .output import atomic_output
+from .plots import COLOURS, plot_curves, plot_samples, plot_validation
 
 FORMATS = ("png", "svg")
 MODULE_COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf")

@@ -9,9 +9,9 @@ Read statically from the source, so an import inside a function counts like one 
   imports nothing of the simulator;
 - ``tasks`` is where sim and brain meet; ``evolution`` and ``modules`` sit above it and do not
   import each other (a partition describes a body, so both take it from ``sim.partition``);
-  ``experiments``, ``analysis`` and ``viz`` above those; ``report`` (a campaign's report) above
-  them all; ``commands`` and ``cli`` on top;
+  ``experiments``, ``analysis`` and ``viz`` above those; ``commands`` and ``cli`` on top;
 - plotting and imaging libraries only in ``viz``; the progress bar only in the command line.
+- ``report`` (a campaign's report) reads every part below the command line, which imports it.
 """
 
 from __future__ import annotations
@@ -35,8 +35,8 @@ ALLOWED = {
     "experiments": {"sim", "brain", "tasks", "evolution", "modules"},
     "analysis": {"sim", "brain", "tasks", "evolution", "modules", "experiments"},
     "viz": {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis"},
-    "bench": {"sim", "brain", "tasks"},
     "report": BELOW_TOP | {"__init__"},
+    "bench": {"sim", "brain", "tasks"},
     "__init__": BELOW_TOP,
     "commands": BELOW_TOP | {"commands", "__init__", "report"},
     "cli": {"commands"},

@@ -90,6 +90,9 @@ def check_p_values(campaign, data) -> None:
         [test] = data["figure5"]["comparison"][shape]["logged"]["tests"]
         expected = mannwhitneyu(finals["rq1"], finals["ablation"], alternative="two-sided")
         assert (test["u"], test["p"]) == (float(expected.statistic), float(expected.pvalue))
+        paper_test = data["figure5"]["one_sided"][shape]["logged"]
+        expected = mannwhitneyu(finals["rq1"], finals["ablation"], alternative="greater")
+        assert paper_test["p"] == float(expected.pvalue)
 
 
 def check_validation(campaign, data, terrains: int) -> None:

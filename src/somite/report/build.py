@@ -105,6 +105,11 @@ def _evolution_figures(campaign, loaded, reruns: dict, folder: Path) -> dict:
                                  label, f"{title} ({which})")
         out[key] = {"comparison": compared, "files": files}
     out["figure5"]["paper"] = paper.ABLATION.to_dict()
+    faster, slower = evolution.FIGURE5.values()
+    out["figure5"]["one_sided"] = {
+        shape: {which: evolution.one_sided(c[which], faster, slower)
+                for which in ("logged", "validation")}
+        for shape, c in out["figure5"]["comparison"].items()}
     out["figure11"]["paper"] = paper.VELOCITY_BY_OMEGA.to_dict()
     return out
 

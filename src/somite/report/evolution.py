@@ -150,5 +150,18 @@ def final_comparison(found: Groups, reruns: dict[str, dict]) -> dict:
     return out
 
 
+def one_sided(comparison: dict, a: str, b: str) -> dict | None:
+    """The paper's test of Figure 5: one-sided Mann-Whitney U, H1 'group ``a`` is faster than
+    group ``b``' (section 5.1.1); None when a group is missing or empty."""
+    groups = comparison["groups"]
+    if not groups.get(a, {}).get("values") or not groups.get(b, {}).get("values"):
+        return None
+    from scipy.stats import mannwhitneyu
+
+    result = mannwhitneyu(groups[a]["values"], groups[b]["values"], alternative="greater")
+    return {"test": "mann-whitney-u, one-sided (a > b)", "a": a, "b": b,
+            "u": float(result.statistic), "p": float(result.pvalue)}
+
+
 __all__ = ["FIGURE10", "FIGURE3", "FIGURE5", "compare", "curves", "final_comparison", "groups",
-           "shape_order", "table1", "task_shape"]
+           "one_sided", "shape_order", "table1", "task_shape"]

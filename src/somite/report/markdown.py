@@ -152,6 +152,12 @@ def _boxes(report: dict) -> list[str]:
         lines += _table(["shape", "group", "runs", "logged v_x", "v_x on validation terrains"],
                         rows)
         lines += _table(["sample", "pair", "n_a", "n_b", "U", "p (two-sided)"], tests)
+        one_sided = [[f"{shape}, {which}", f"{t['a']} > {t['b']}", _n(t["u"], 1), _p(t["p"])]
+                     for shape, tests in data.get("one_sided", {}).items()
+                     for which, t in tests.items() if t is not None]
+        if one_sided:
+            lines += ["The paper's own test, one-sided:", ""]
+            lines += _table(["sample", "alternative", "U", "p (one-sided)"], one_sided)
         lines += _images(data["files"]["logged"], title + " (logged)")
         lines += _images(data["files"]["validation"], title + " (validation)")
     return lines

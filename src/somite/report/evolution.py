@@ -33,7 +33,8 @@ def task_shape(task: Task, loaded: Loaded) -> str:
         return shape_name(loaded.runs[task.id].config["shape"])
     if isinstance(task.options.get("shape"), str):
         return shape_name(task.options["shape"])
-    return task.name.rsplit("-s", 1)[0].split("-")[0]
+    # "<shape>-s<seed>", or "<variant>-<shape>-s<seed>" in a campaign file with variants
+    return shape_name(task.name.rsplit("-s", 1)[0].rsplit("-", 1)[-1])
 
 
 def shape_order(shapes) -> list[str]:

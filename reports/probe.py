@@ -382,6 +382,14 @@ def cases() -> list[tuple[str, str, list[str], str]]:
     case("wrong types", "reassemble --take x=y", ["reassemble", "run", "run", "--partition",
                                                   "worm-halves", "--take", "x=y",
                                                   "--out", "cases/r"])
+    for name, campaign in (("an empty folder", "cases"), ("a run directory", "run"),
+                           ("a FIFO", "bad/fifo.json"), ("a file", "genome.json"),
+                           ("missing", "bad/none")):
+        case("report", f"report of {name}", ["report", campaign, "--quiet", "--out",
+                                              "cases/rep"])
+    case("report", "report --out in /proc", ["report", "run", "--out", "/proc/somite-probe"])
+    case("report", "report --validation 100000", ["report", "run", "--validation", "100000",
+                                                  "--out", "cases/rep"])
     case("run directories", "evolve --resume on an empty folder (answered)",
          ["evolve", "--resume", "--population", "2", "--generations", "0", *SIM, "--quiet",
           "--out", "cases"], ANSWERED)

@@ -1,5 +1,5 @@
 """Hostile input, generated: random corruptions of every file format somite reads, random
-values for the CLI's numbers and random arguments to each of the 15 commands each end in exit
+values for the CLI's numbers and random arguments to each of the 16 commands each end in exit
 0, or one line and exit 2 (never a traceback), and change nothing outside ``--out``; a refused
 command writes nothing (issue 10)."""
 
@@ -241,6 +241,8 @@ EVERY = {
                     "worm-halves", "--out", "{out}/r", "--validation", "1", "--duration", "0.5"],
                    ["@1", "@2", "--partition", "--out", "--receiver-shape", "--take",
                     "--receiver-partition", "--validation", "--duration"]),
+    "report": (["report", "{pool}/folder", "--out", "{out}/report", "--quiet"],
+               ["@1", "--out", "--validation"]),
     "reoptimize": (["reoptimize", "{root}/genome.json", "--donors", "{root}/run",
                     "--population", "2", "--generations", "0", "--duration", "0.5",
                     "--validation", "1", "--quiet", "--out", "{out}/re"],
@@ -267,7 +269,10 @@ VALUES = st.sampled_from([
 
 SLOW = {("demo", "--generations"): {"0", "1"}}
 """Valid values that would start a long run (the demo's 48 robots, 20 s episodes and video):
-not tried; every other value must be refused."""
+not tried."""
+REFUSED_ONLY = {"demo", "report"}
+"""Commands fuzzed from a refused start (the demo is long, a campaign costs minutes to build):
+every value must be refused."""
 
 
 def make_pool(pool: Path, genome: Path) -> None:
@@ -307,7 +312,7 @@ def test_random_arguments_to_every_command(command, files, tmp_path_factory, cap
 
     cwd.mkdir()
     monkeypatch.chdir(cwd)  # a relative --out lands here
-    if command != "demo":
+    if command not in REFUSED_ONLY:
         assert main(fresh(*base)) == 0, "the starting point must be a valid command"
         capsys.readouterr()
 
@@ -324,7 +329,7 @@ def test_random_arguments_to_every_command(command, files, tmp_path_factory, cap
         assert snapshot(files, mine) == before
         if code == 2:  # refused: nothing written
             assert [*out.iterdir(), *cwd.iterdir()] == [], args
-        if (command, name) in SLOW:
+        if command in REFUSED_ONLY:
             assert code == 2, args
 
     run()

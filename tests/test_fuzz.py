@@ -300,15 +300,18 @@ def test_random_arguments_to_every_command(command, files, tmp_path_factory, cap
                                            monkeypatch):
     base, names = EVERY[command]
     tmp = tmp_path_factory.mktemp("every")
-    out, pool, cwd = tmp / "out", tmp / "pool", tmp / "cwd"
+    root, out, pool, cwd = tmp / "root", tmp / "out", tmp / "pool", tmp / "cwd"
 
     def fresh(*args: str) -> list[str]:
-        shutil.rmtree(out, ignore_errors=True)
+        # The inputs too: an --out among them may be written (module export --out genome.json).
+        for folder in (root, out):
+            shutil.rmtree(folder, ignore_errors=True)
+        shutil.copytree(files, root)
         out.mkdir()
         for path in cwd.iterdir():
             shutil.rmtree(path) if path.is_dir() else path.unlink()
         make_pool(pool, files / "genome.json")
-        return [a.format(root=files, out=out, pool=pool) for a in args]
+        return [a.format(root=root, out=out, pool=pool) for a in args]
 
     cwd.mkdir()
     monkeypatch.chdir(cwd)  # a relative --out lands here
@@ -323,10 +326,10 @@ def test_random_arguments_to_every_command(command, files, tmp_path_factory, cap
             return
         args = fresh(*with_value(base, name, value))
         # Asked to write among the inputs (--out {root}/run), a command may change that.
-        mine = Path(value.format(root=files, out=out, pool=pool)) if name == "--out" else out
-        before = snapshot(files, mine)
+        mine = Path(value.format(root=root, out=out, pool=pool)) if name == "--out" else out
+        before = snapshot(root, mine)
         code = one_line_or_success(args, capsys)
-        assert snapshot(files, mine) == before
+        assert snapshot(root, mine) == before
         if code == 2:  # refused: nothing written
             assert [*out.iterdir(), *cwd.iterdir()] == [], args
         if command in REFUSED_ONLY:

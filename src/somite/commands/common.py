@@ -71,6 +71,7 @@ DEFAULTS = {
     "shape": "worm",
     "sensors": "paper",
     "validation": 10,
+    "backend": "cpu",
 }
 """The one default of each shared option; the library's defaults are the same values
 (``tests/test_cli.py`` checks that ``somite evolve`` records them)."""
@@ -82,6 +83,7 @@ _SHARED = {
     "shape": ({}, "biped, worm, WxH or rows like 1111/1001"),
     "sensors": ({}, "sensor preset: paper, none, area or all"),
     "validation": ({"type": int, "metavar": "N"}, "how many fixed validation terrains"),
+    "backend": ({}, "where episodes run: cpu, or cuda (an NVIDIA GPU; pip install somite[cuda])"),
     "json": ({"action": "store_true"}, "print JSON"),
     "quiet": ({"action": "store_true"}, "print nothing while running"),
 }

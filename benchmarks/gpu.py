@@ -162,7 +162,8 @@ def main() -> dict:
                     "cores": os.cpu_count(), "numba_threads": numba.get_num_threads(),
                     "numba": numba.__version__, "numpy": np.__version__,
                     "cuda": reason or "available"},
-        "workload": f"worm, paper sensors, ~200-element random graphs, hilly-1-10, {args.duration:g} s",
+        "workload": ("worm, paper sensors, ~200-element random graphs, hilly-1-10, "
+                     f"{args.duration:g} s"),
     }
     rng = np.random.default_rng(0)
     body = Body.build("worm")

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
+from somite import evolve_lockstep
 from somite.cli import main
 from somite.experiments.config import resolve
-from somite.experiments.lockstep import evolve_lockstep
 from somite.experiments.runner import evolve
 from somite.tasks.backends import check_backend, cuda_unavailable
 

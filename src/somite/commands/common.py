@@ -71,7 +71,6 @@ DEFAULTS = {
     "shape": "worm",
     "sensors": "paper",
     "validation": 10,
-    "backend": "cpu",
 }
 """The one default of each shared option; the library's defaults are the same values
 (``tests/test_cli.py`` checks that ``somite evolve`` records them)."""
@@ -83,7 +82,8 @@ _SHARED = {
     "shape": ({}, "biped, worm, WxH or rows like 1111/1001"),
     "sensors": ({}, "sensor preset: paper, none, area or all"),
     "validation": ({"type": int, "metavar": "N"}, "how many fixed validation terrains"),
-    "backend": ({}, "where episodes run: cpu, or cuda (an NVIDIA GPU; pip install somite[cuda])"),
+    "backend": ({"default": "cpu"}, "where episodes run: cpu (default), or cuda (an NVIDIA GPU; "
+                "pip install somite[cuda]); not part of a run's configuration"),
     "json": ({"action": "store_true"}, "print JSON"),
     "quiet": ({"action": "store_true"}, "print nothing while running"),
 }

@@ -197,7 +197,7 @@ def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
             np.empty(n_nodes), lidar_rays(params))
 
 
-@njit
+@njit(inline="always")
 def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground, scratch, pos,
             vel, voxels, touch_hist, vel_hist, readings, actuation, h_prev, h_next, rays):
     """:func:`run_robot` over supplied work arrays, which it initialises (a GPU thread cannot

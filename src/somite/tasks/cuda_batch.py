@@ -5,9 +5,9 @@ runs for its robot, compiled as a CUDA device function by :func:`somite._jit.dev
 (with everything it calls), so the two backends cannot drift apart. What a CPU thread
 allocates for its robot comes here from per-batch device arrays (:class:`Work`).
 
-Every array with a robot axis is stored robot-fastest in GPU memory (:func:`robot_major`):
-the kernels still index ``a[b, ...]``, but neighbouring threads then read neighbouring
-addresses, which the GPU serves in one memory transaction instead of 32.
+The batch's inputs and work arrays are stored robot-fastest in GPU memory
+(:func:`robot_major`): the kernels still index ``a[b, ...]``, but neighbouring threads then
+read neighbouring addresses, which the GPU serves in one memory transaction instead of 32.
 
 Import this module only when :func:`~somite.tasks.backends.cuda_unavailable` says None.
 """
@@ -148,11 +148,13 @@ def run_batch(system, ctrl: Controllers, params, noise, seeds, n_steps: int,
         robot_major(a, a.shape) if i < terrain and a.ndim > 1 else cuda.to_device(a)
         for i, a in enumerate(system)
     ))
-    device_trace = _upload(trace)
+    # The trace keeps the host's layout: a thread writes a few values of it per control step,
+    # and the copies back need no transposing.
+    device_trace = _upload(trace, robot_axis=False)
     blocks = (n + THREADS_PER_BLOCK - 1) // THREADS_PER_BLOCK
     _run_batch[blocks, THREADS_PER_BLOCK](
         device_system, _upload(ctrl), params, cuda.to_device(noise), cuda.to_device(seeds),
         n_steps, device_trace, new_work(system, ctrl, params), cuda.to_device(lidar_rays(params)),
     )
     for host, device in zip(trace, device_trace):
-        host[...] = device.copy_to_host()
+        device.copy_to_host(host)

@@ -59,7 +59,7 @@ def main() -> dict:
                              for f in cuda_batch.Work._fields], cuda_batch.Work)
     argtypes = (robot_major(system, "terrain_of"), robot_major(ctrl), typeof(params),
                 typeof(noise_table(config)), typeof(np.zeros(2, np.uint64)), types.int64,
-                robot_major(new_trace(2, config.n_steps, system, False)), work,
+                typeof(new_trace(2, config.n_steps, system, False)), work,
                 typeof(lidar_rays(params)))
     start = time.perf_counter()
     ptx, _ = cuda.compile_ptx(cuda_batch._run_batch.py_func, argtypes, cc=CC)

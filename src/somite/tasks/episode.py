@@ -20,11 +20,10 @@ from ..brain.kernels import graph_step
 from ..brain.openloop import sine_actuation, table_actuation
 from ..sim.config import CONTROL_HZ
 from ..sim.physics import (
-    enforce_min_lengths,
+    advance,
     ground_height,
     segment_near,
     set_rest_lengths,
-    substep,
 )
 from ..sim.robot import ground_view, new_scratch, robot_view
 from ..sim.sensors import angle_mode, lidar_rays, sense, update_histories, voxel_state
@@ -91,7 +90,7 @@ def new_trace(n_robots: int, n_steps: int, system, record: bool) -> Trace:
     )
 
 
-@njit
+@njit(_nrt=False)
 def _centre_of_mass(n_points, mass, pos):
     total = 0.0
     x = 0.0
@@ -103,7 +102,7 @@ def _centre_of_mass(n_points, mass, pos):
     return x / total, y / total
 
 
-@njit
+@njit(_nrt=False)
 def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
     """|angle| [deg] of the line from the leftmost column's centre to the rightmost's."""
     if x_lo == x_hi:
@@ -124,7 +123,7 @@ def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
     return abs(math.degrees(math.atan2(dy, dx)))
 
 
-@njit
+@njit(_nrt=False)
 def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, segment, params,
              out):
     """Update the episode's diagnostics ``out`` (D_*) with control step ``k``; ``segment``
@@ -153,7 +152,7 @@ def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, segme
     out[D_MAX_COM_SPEED] = max(out[D_MAX_COM_SPEED], speed)
 
 
-@njit
+@njit(_nrt=False)
 def _record(b, step, n_points, n_voxels, n_readings, pos, contact, actuation, readings, trace):
     for p in range(n_points):
         trace.pos[b, step, p, 0] = pos[p, 0]
@@ -165,7 +164,7 @@ def _record(b, step, n_points, n_voxels, n_readings, pos, contact, actuation, re
         trace.readings[b, step, r] = readings[r]
 
 
-@njit
+@njit(_nrt=False)
 def _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation, params):
     kind = ctrl.kind[b]
     if kind == SINE:
@@ -245,10 +244,9 @@ def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground,
     diagnostics = trace.diagnostics[b]
     diagnostics[D_MAX_GAP] = -np.inf
     for k in range(1, n_steps + 1):
-        set_rest_lengths(robot, scratch, actuation, params)
-        for _ in range(substeps):
-            substep(robot, ground, scratch, pos, vel, params)
-        enforce_min_lengths(robot, pos, vel)
+        set_rest_lengths(n_voxels, robot.n_springs, robot.owners, robot.rest0, actuation,
+                         params.contract, params.expand, scratch.factor, scratch.rest)
+        advance(robot, ground, scratch, pos, vel, params, substeps)
         cx, cy = _centre_of_mass(n_points, mass, pos)
         for p in range(n_points):
             fastest = max(fastest, vel[p, 0] * vel[p, 0] + vel[p, 1] * vel[p, 1])

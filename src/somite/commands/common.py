@@ -92,6 +92,8 @@ _SHARED = {
     "shape": ({}, "biped, worm, WxH or rows like 1111/1001"),
     "sensors": ({}, "sensor preset: paper, none, area or all"),
     "validation": ({"type": int, "metavar": "N"}, "how many fixed validation terrains"),
+    "backend": ({"default": "cpu"}, "where episodes run: cpu (default), or cuda (an NVIDIA GPU; "
+                "pip install somite[cuda]); not part of a run's configuration"),
     "json": ({"action": "store_true"}, "print JSON"),
     "quiet": ({"action": "store_true"}, "print nothing while running"),
 }

@@ -7,6 +7,7 @@ import math
 
 from ..experiments.reoptimize import donor_velocities, transfer_curve
 from ..experiments.runner import RunDirectory, evolve
+from ..tasks.backends import check_backend
 from ..tasks.validation import check_count
 from ..tasks.velocity import mean_velocity
 from .common import add_genome, add_options, load_genome
@@ -31,12 +32,13 @@ def run(args: argparse.Namespace) -> int:
     donors = [load_genome(path) for path in args.donors]
     shape = genome.body.shape.grid_string()
     config = configuration(args, shape=shape, start=str(args.genome))
+    backend = check_backend(args.backend)
     sim = config.task().sim
     # Locked until transfer.csv is written: it is part of the run.
     with RunDirectory(args.out).locked() as run_dir:
         with progress_bar(config.generations, args.quiet) as report:
             ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report,
-                        start=genome)
+                        start=genome, backend=backend)
         velocities = donor_velocities(donors, sim, args.validation) if donors else []
         rows = transfer_curve(args.out, velocities, sim, args.validation)
     summarise(ea, RunDirectory(args.out), args.quiet)

@@ -320,6 +320,7 @@ def evolve(
     force: bool = False,
     progress: Progress | None = None,
     start: Genome | None = None,
+    backend: str = "cpu",
 ) -> GraphEA:
     """Run (or resume) an evolution into the run directory ``out``; returns the EA at the end.
 
@@ -327,15 +328,27 @@ def evolve(
     its shape must be the configuration's. ``progress`` is called after every generation with
     the EA and the log row. The run directory is locked for the run (a second process is
     refused); a caller that needs it locked for longer passes a locked :class:`RunDirectory`.
+    ``backend`` (``cpu``, ``cuda``) is where the episodes run.
     """
     if isinstance(out, RunDirectory) and out.lock.held:
-        return _evolve(config, out, resume, force, progress, start)
+        return _evolve(config, out, resume, force, progress, start, backend)
     with RunDirectory(out.path if isinstance(out, RunDirectory) else out).locked() as run_dir:
-        return _evolve(config, run_dir, resume, force, progress, start)
+        return _evolve(config, run_dir, resume, force, progress, start, backend)
 
 
 def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
-            progress: Progress | None, start: Genome | None) -> GraphEA:
+            progress: Progress | None, start: Genome | None, backend: str) -> GraphEA:
+    ea = open_run(config, run_dir, resume, force, start)
+    task = config.task(ea.body, backend)
+    while ea.generation < config.generations:
+        finish_generation(ea, step(ea, task, config), run_dir, config, progress)
+    return ea
+
+
+def open_run(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
+             start: Genome | None) -> GraphEA:
+    """The EA of a new run (its files started) or of a resumed one (its files cut back to
+    the checkpoint); ``run_dir`` must be locked."""
     restart = False
     if resume:
         run_dir.remove_temporary()
@@ -360,20 +373,23 @@ def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
             raise bad("shape", config.shape,
                       f"the start genome's shape is {body.shape.grid_string()}")
         ea = GraphEA(body, seed=config.seed, start=start, config=config.ga)
-    task = config.task(ea.body)
+    config.task(ea.body)  # refuses a body the task cannot run before any file is touched
     if resume:
         run_dir.cut_back(ea.generation)
         if run_dir.saved_config() != config:  # --resume --generations N
             run_dir.write_config(config)
     else:
         run_dir.prepare_new(config, force, restart)
-    while ea.generation < config.generations:
-        row = step(ea, task, config)
-        run_dir.append(row, ea.best)
-        if progress is not None:
-            progress(ea, row)
-        if ea.generation % config.checkpoint_every == 0 or ea.generation in (
-            0, config.generations
-        ):
-            run_dir.save(ea, config)
     return ea
+
+
+def finish_generation(ea: GraphEA, row: dict, run_dir: RunDirectory, config: RunConfig,
+                      progress: Progress | None) -> None:
+    """Write a told generation's row and best; report it; checkpoint when due."""
+    run_dir.append(row, ea.best)
+    if progress is not None:
+        progress(ea, row)
+    if ea.generation % config.checkpoint_every == 0 or ea.generation in (
+        0, config.generations
+    ):
+        run_dir.save(ea, config)

@@ -187,27 +187,48 @@ def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
     """Simulate robot ``b`` of the batch for ``n_steps`` control steps into ``trace``
     (``noise``: see :func:`~somite.sim.sensors.noise_table`)."""
     robot = robot_view(system, b, params)
-    ground = ground_view(system, b)
-    scratch = new_scratch(robot)
+    n_points = robot.n_points
+    n_voxels = robot.n_voxels
+    n_nodes = ctrl.n_nodes[b]
+    episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground_view(system, b),
+            new_scratch(robot), np.empty((n_points, 2)), np.empty((n_points, 2)),
+            np.empty((n_voxels, 6)), np.empty((n_voxels, int(params.touch_window))),
+            np.empty((n_voxels, int(params.velocity_window), 2)),
+            np.empty(system.n_readings[b]), np.empty(n_voxels), np.empty(n_nodes),
+            np.empty(n_nodes), lidar_rays(params))
+
+
+@njit(inline="always")
+def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground, scratch, pos,
+            vel, voxels, touch_hist, vel_hist, readings, actuation, h_prev, h_next, rays):
+    """:func:`run_robot` over supplied work arrays, which it initialises (a GPU thread cannot
+    allocate): ``pos``, ``vel`` (P, 2), ``voxels`` (V, 6), ``touch_hist`` (V, touch window),
+    ``vel_hist`` (V, velocity window, 2), ``readings`` (R,), ``actuation`` (V,), ``h_prev``,
+    ``h_next`` (N,), ``rays`` :func:`~somite.sim.sensors.lidar_rays`; ``scratch`` from
+    :func:`~somite.sim.robot.scratch_in`."""
     n_points = robot.n_points
     n_voxels = robot.n_voxels
     n_readings = system.n_readings[b]
     mass = robot.mass
     voxel_x = system.voxel_x[b]
     recording = trace.pos.shape[0] > 0
-
-    pos = system.initial_pos[b, :n_points].copy()
-    vel = np.zeros((n_points, 2))
-    voxels = np.zeros((n_voxels, 6))
-    touch_hist = np.zeros((n_voxels, int(params.touch_window)))
-    vel_hist = np.zeros((n_voxels, int(params.velocity_window), 2))
-    readings = np.zeros(n_readings)
-    actuation = np.zeros(n_voxels)
-    n_nodes = ctrl.n_nodes[b]
-    h_prev = np.zeros(n_nodes)
-    h_next = np.zeros(n_nodes)
+    for p in range(n_points):
+        pos[p, 0] = system.initial_pos[b, p, 0]
+        pos[p, 1] = system.initial_pos[b, p, 1]
+        vel[p, 0] = vel[p, 1] = 0.0
+    for v in range(n_voxels):
+        actuation[v] = 0.0
+        for j in range(6):
+            voxels[v, j] = 0.0
+        for j in range(touch_hist.shape[1]):
+            touch_hist[v, j] = 0.0
+        for j in range(vel_hist.shape[1]):
+            vel_hist[v, j, 0] = vel_hist[v, j, 1] = 0.0
+    for r in range(n_readings):
+        readings[r] = 0.0
+    for n in range(h_prev.shape[0]):
+        h_prev[n] = h_next[n] = 0.0
     substeps = int(params.substeps)
-    rays = lidar_rays(params)
     angle = angle_mode(params)
 
     cx, cy = _centre_of_mass(n_points, mass, pos)

@@ -68,7 +68,9 @@ def main() -> dict:
             lap("compile_batch")
             trace = run(system, controllers, sim, seeds)
             lap("kernel")
-            fitness = np.array([o.velocity for o in outcomes(trace, sim)])
+            results = outcomes(trace, sim)
+            fitness = np.array([o.velocity for o in results])
+            non_finite = sum(o.non_finite > 0 for o in results)
             lap("outcomes")
             merged = np.concatenate([population.fitness, fitness])
             kept = truncate(merged, config.ga.population, rng)
@@ -78,7 +80,8 @@ def main() -> dict:
                                           [origins[i] for i in kept])
             lap("merge_and_truncate")
             row = {"generation": 0, "evaluations": 0, "elapsed_seconds": 0.0,
-                   **statistics(population, fitness), "validation_velocity": None}
+                   **statistics(population, fitness), "validation_velocity": None,
+                   "non_finite_episodes": non_finite}
             run_dir.append(row, population.genomes[population.best()])
             lap("log_and_bests")
     median = {k: float(np.median(v)) for k, v in times.items()}

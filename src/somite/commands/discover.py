@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import csv
 import io
+from pathlib import Path
 
 from .._io import check_output_folder, write_atomic
 from ..brain.genome import Genome
@@ -24,15 +25,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     out = check_output_folder(args.out)
     genome = load_genome(args.genome)
-    ranked = rank_candidates(genome, args.b_min, args.b_max)
+    best, partition, ranked = write_discovery(out, genome, str(args.genome), args.b_min,
+                                              args.b_max)
+    print(f"most compact module (c = {_fmt(best.compactness)}): {list(best.voxels)}")
+    print(f"partition {partition.grid_string()} ({len(partition.modules)} modules)")
+    print(f"-> {out / 'partition.json'}, {out / 'candidates.csv'} ({len(ranked)} candidates)")
+    return 0
+
+
+def write_discovery(out: Path, genome: Genome, name: str, b_min: int = 2, b_max: int = 5):
+    """Rank the candidate modules of ``genome`` (named ``name`` in the file), partition its
+    body around the most compact one and write ``partition.json`` and ``candidates.csv`` into
+    ``out``; returns (best candidate, partition, ranked candidates)."""
+    ranked = rank_candidates(genome, b_min, b_max)
     best = ranked[0]
     partition = partition_around(genome.body.shape, best.voxels)
     out.mkdir(parents=True, exist_ok=True)
     partition.save(
         out / "partition.json",
-        genome=str(args.genome),
-        b_min=args.b_min,
-        b_max=args.b_max,
+        genome=name,
+        b_min=b_min,
+        b_max=b_max,
         n_candidates=len(ranked),
         best={"label": "A", **best.to_dict()},
         scores={
@@ -40,10 +53,7 @@ def run(args: argparse.Namespace) -> int:
         },
     )
     write_atomic(out / "candidates.csv", _csv(ranked))
-    print(f"most compact module (c = {_fmt(best.compactness)}): {list(best.voxels)}")
-    print(f"partition {partition.grid_string()} ({len(partition.modules)} modules)")
-    print(f"-> {out / 'partition.json'}, {out / 'candidates.csv'} ({len(ranked)} candidates)")
-    return 0
+    return best, partition, ranked
 
 
 def _module_score(genome: Genome, partition, label: str) -> dict:

@@ -89,47 +89,59 @@ def run(args: argparse.Namespace) -> int:
         check_count(args.validation)
     config = simulation_config(args)
     genomes = (load_genome(args.donor1), load_genome(args.donor2))
-    donors = tuple(zip(genomes, _donor_partitions(args.partition, genomes)))
-    body, receiver = receiver_for(
-        donors, args.receiver_shape, args.receiver_sensors, args.receiver_partition
+    report = write_reassembly(
+        out, genomes, (args.donor1, args.donor2), args.partition, config,
+        receiver_shape=args.receiver_shape, receiver_sensors=args.receiver_sensors,
+        receiver_partition=args.receiver_partition, take=args.take,
+        validation=args.validation, seed=args.seed, preset=args.preset, draw=args.draw,
     )
-    if args.take is None:
-        takes = paper_takes(receiver, donors)
-    else:
-        takes = _takes(args.take, donors, receiver)
-    result = reassemble(body, receiver, takes, donors)
-    report = result.to_dict()
-    for entry, path in zip(report["donors"], (args.donor1, args.donor2)):
-        entry["file"] = str(path)
-    report["file"] = "reassembled.json"
-    if args.validation:
-        report["validation"] = _validation(args, result.genome, genomes, config)
-    if args.draw:
-        report["draw"] = "reassembled.png"
-    out.mkdir(parents=True, exist_ok=True)
-    result.genome.save(out / "reassembled.json")
-    write_atomic(out / "report.json", json.dumps(report, indent=1, allow_nan=False) + "\n")
-    write_atomic(out / "report.csv", _csv(report["modules"]))
-    if args.draw:
-        from ..viz.brain import draw_brain
-
-        draw_brain(result.genome, out / "reassembled.png", partition=result.partition)
     _print_summary(report, out)
     if args.draw:
         print(f"  drawing -> {out / 'reassembled.png'}")
     return 0
 
 
-def _validation(args, reassembled, donors, config) -> dict:
+def write_reassembly(out: Path, genomes, files, partitions, config, *, receiver_shape=None,
+                     receiver_sensors=None, receiver_partition=None, take=None,
+                     validation: int = 10, seed: int = 0, preset: str = "paper",
+                     draw: bool = False) -> dict:
+    """Reassemble the two donor ``genomes`` (named ``files`` in the report) and write
+    ``reassembled.json``, ``report.json`` and ``report.csv`` into ``out``; returns the report.
+    The options are ``somite reassemble``'s; ``config`` is the SimConfig of the validation."""
+    donors = tuple(zip(genomes, _donor_partitions(partitions, genomes)))
+    body, receiver = receiver_for(donors, receiver_shape, receiver_sensors, receiver_partition)
+    takes = paper_takes(receiver, donors) if take is None else _takes(take, donors, receiver)
+    result = reassemble(body, receiver, takes, donors)
+    report = result.to_dict()
+    for entry, path in zip(report["donors"], files):
+        entry["file"] = str(path)
+    report["file"] = "reassembled.json"
+    if validation:
+        report["validation"] = _validation(validation, seed, preset, result.genome, genomes,
+                                           config)
+    if draw:
+        report["draw"] = "reassembled.png"
+    out.mkdir(parents=True, exist_ok=True)
+    result.genome.save(out / "reassembled.json")
+    write_atomic(out / "report.json", json.dumps(report, indent=1, allow_nan=False) + "\n")
+    write_atomic(out / "report.csv", _csv(report["modules"]))
+    if draw:
+        from ..viz.brain import draw_brain
+
+        draw_brain(result.genome, out / "reassembled.png", partition=result.partition)
+    return report
+
+
+def _validation(count, seed, preset, reassembled, donors, config) -> dict:
     """v_x of the new robot and both donors on the validation terrains, and rho."""
     from ..modules.transfer import transferability
     from ..tasks.validation import validation_terrains
 
-    terrains = validation_terrains(args.validation)
-    measured = transferability(reassembled, *donors, terrains, config, args.seed)
+    terrains = validation_terrains(count)
+    measured = transferability(reassembled, *donors, terrains, config, seed)
     return {
-        "n_terrains": args.validation, "duration": config.duration, "preset": args.preset,
-        "seed": args.seed, **measured.to_dict(),
+        "n_terrains": count, "duration": config.duration, "preset": preset,
+        "seed": seed, **measured.to_dict(),
     }
 
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import math
 
-from ..experiments.reoptimize import donor_velocities, transfer_curve
-from ..experiments.runner import RunDirectory, evolve
+from ..experiments.reoptimize import reoptimize
+from ..experiments.runner import RunDirectory
 from ..tasks.validation import check_count
 from ..tasks.velocity import mean_velocity
 from .common import add_genome, add_options, load_genome
@@ -31,14 +31,12 @@ def run(args: argparse.Namespace) -> int:
     donors = [load_genome(path) for path in args.donors]
     shape = genome.body.shape.grid_string()
     config = configuration(args, shape=shape, start=str(args.genome))
-    sim = config.task().sim
-    # Locked until transfer.csv is written: it is part of the run.
+    # Locked before the progress bar starts, so that a refusal is the only line printed.
     with RunDirectory(args.out).locked() as run_dir:
         with progress_bar(config.generations, args.quiet) as report:
-            ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report,
-                        start=genome)
-        velocities = donor_velocities(donors, sim, args.validation) if donors else []
-        rows = transfer_curve(args.out, velocities, sim, args.validation)
+            ea, rows, velocities = reoptimize(config, run_dir, genome, donors,
+                                              args.validation, resume=args.resume,
+                                              force=args.force, progress=report)
     summarise(ea, RunDirectory(args.out), args.quiet)
     donors_mean = mean_velocity(velocities) if donors else math.nan
     if not args.quiet and donors:

@@ -73,7 +73,13 @@ def _client(scheduler: str | None, workers: int):
     return Client(cluster), cluster
 
 
-def dashboard_link(client) -> str:
+def dashboard_link(client, local: bool) -> str:
+    """The address of Dask's dashboard, or "" (a local one needs bokeh: without it the
+    scheduler serves no status pages)."""
+    import importlib.util
+
+    if local and importlib.util.find_spec("bokeh") is None:
+        return ""
     try:
         info = client.scheduler_info()
         if "dashboard" not in info.get("services", {}):
@@ -97,7 +103,7 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
     start = time.perf_counter()
     client, cluster = _client(scheduler, workers)
     try:
-        outcome.dashboard = dashboard_link(client)
+        outcome.dashboard = dashboard_link(client, cluster is not None)
         token = uuid.uuid4().hex[:8]  # a scheduler may hold another campaign's tasks
         futures = {}
         for task in tasks:

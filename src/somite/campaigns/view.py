@@ -111,7 +111,7 @@ class LiveView:
                  f"generations {reached}/{sum(i['generations'] for i in runs)}   "
                  f"{done / max(total, 1):.1%} of {total:.3g} robot-control-steps   "
                  f"elapsed {_duration(elapsed)}  ETA {eta}"),
-            Text("dashboard: " + (dashboard or "none (pip install bokeh for Dask's)")),
+            Text("dashboard: " + (dashboard or "none (Dask's needs bokeh: pip install 'somite[dashboard]')")),
         ]
         for info in infos:
             if info["state"] == "running":

@@ -73,7 +73,7 @@ def _reoptimize(root: Path, out: Path, options: dict) -> int:
 
 def _reassemble(root: Path, out: Path, options: dict) -> int:
     from ..brain.genome import Genome
-    from ..commands.reassemble import write_reassembly
+    from ..experiments.reassembly import write_reassembly
     from ..sim.config import preset
 
     genomes = [Genome.load(root / d / "best.json") for d in options["donors"]]
@@ -89,7 +89,7 @@ def _reassemble(root: Path, out: Path, options: dict) -> int:
 
 def _discover(root: Path, out: Path, options: dict) -> int:
     from ..brain.genome import Genome
-    from ..commands.discover import write_discovery
+    from ..experiments.discovery import write_discovery
 
     genome = Genome.load(root / options["genome"] / "best.json")
     write_discovery(out, genome, options["genome"], options["b_min"], options["b_max"])

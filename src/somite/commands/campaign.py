@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 from ..errors import bad
@@ -56,7 +57,6 @@ def _run(args: argparse.Namespace) -> int:
     from ..campaigns import directory as campaign_dir
     from ..campaigns.executor import execute, sizing
     from ..campaigns.tasks import expand
-    from ..campaigns.view import LiveView
     from ..experiments.lock import RunLock
 
     sizing(args.workers, args.threads)  # bad sizes are refused before anything is written
@@ -112,15 +112,105 @@ def _status(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from ..campaigns import directory as campaign_dir
-    from ..campaigns.view import states, summary, table, work_done
+    from ..campaigns.progress import snapshot, states
 
     directory = Path(args.directory)
     doc = campaign_dir.read(directory)
     infos = states(directory, doc)
-    console = Console()
-    console.print(table(directory, doc, infos))
-    counts = summary(infos)
-    done, total = work_done(doc, infos)
-    print(", ".join(f"{n} {k}" for k, n in counts.items()) +
-          f"; {done / max(total, 1):.1%} of {total:.3g} robot-control-steps")
+    Console().print(_table(directory, doc, infos))
+    now = snapshot(doc, infos)
+    print(", ".join(f"{n} {k}" for k, n in now.counts.items()) +
+          f"; {now.fraction:.1%} of {now.steps[1]:.3g} robot-control-steps")
     return 0
+
+
+def _duration(seconds: float) -> str:
+    seconds = int(seconds)
+    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
+
+
+def _fmt(value) -> str:
+    return "-" if value is None else f"{value:.3f}"
+
+
+def _table(directory: Path, doc: dict, infos: list[dict]):
+    """The table of every task: id, kind, state, generation/total, best v_x."""
+    from rich.table import Table
+
+    grid = Table(title=f"campaign {doc.get('name')} in {directory}")
+    for name in ("task", "kind", "state", "generation", "best v_x [m/s]"):
+        grid.add_column(name, justify="right" if name.startswith(("gen", "best")) else "left",
+                        no_wrap=name == "task")
+    for info in infos:
+        generation = "-"
+        if info["generations"] is not None:
+            reached = "-" if info["generation"] is None else info["generation"]
+            generation = f"{reached}/{info['generations']}"
+        grid.add_row(info["id"], info["kind"], info["state"], generation, _fmt(info["best"]))
+    return grid
+
+
+class LiveView:
+    """The progress of a running campaign: tasks done / running / queued, generations, ETA,
+    the running runs and the Dask dashboard's address. Nothing at all when ``quiet``."""
+
+    def __init__(self, directory: Path, doc: dict, quiet: bool) -> None:
+        self.directory, self.doc, self.quiet = directory, doc, quiet
+        self.live = None
+        self.started = time.monotonic()
+        self.at_start = None
+        self.last = 0.0
+        self.dashboard = ""
+
+    def __enter__(self) -> LiveView:
+        if not self.quiet:
+            from rich.live import Live
+
+            self.live = Live(self._render(), refresh_per_second=2)
+            self.live.start()
+        return self
+
+    def update(self, outcome) -> None:
+        if self.live is None or time.monotonic() - self.last < 1.0:
+            return
+        self.last = time.monotonic()
+        self.dashboard = outcome.dashboard
+        self.live.update(self._render())
+
+    def _render(self):
+        from rich.console import Group
+        from rich.text import Text
+
+        from ..campaigns.progress import snapshot, states
+
+        now = snapshot(self.doc, states(self.directory, self.doc))
+        done, total = now.steps
+        if self.at_start is None:
+            self.at_start = done
+        elapsed = time.monotonic() - self.started
+        rate = (done - self.at_start) / elapsed if elapsed > 0 else 0.0
+        eta = _duration((total - done) / rate) if rate > 0 else "-"
+        counts = now.counts
+        lines = [
+            Text(f"campaign {self.doc.get('name')} -> {self.directory}", style="bold"),
+            Text(f"tasks: {counts['done']} done, {counts['running']} running, "
+                 f"{counts['queued'] + counts['partial']} queued (of {sum(counts.values())})   "
+                 f"generations {now.generations[0]}/{now.generations[1]}   "
+                 f"{now.fraction:.1%} of {total:.3g} robot-control-steps   "
+                 f"elapsed {_duration(elapsed)}  ETA {eta}"),
+            Text("dashboard: " + (self.dashboard or "none (Dask's needs bokeh: pip install "
+                                  "'somite[dashboard]')")),
+        ]
+        for info in now.running:
+            generation = "" if info["generation"] is None else (
+                f"  generation {info['generation']}/{info['generations']}"
+                f"  best v_x {_fmt(info['best'])}")
+            lines.append(Text(f"  {info['id']}{generation}"))
+        return Group(*lines)
+
+    def __exit__(self, *exc) -> None:
+        if self.live is not None:
+            self.live.update(self._render())
+            self.live.stop()
+            if not self.live.console.is_terminal:
+                self.live.console.line()

@@ -17,7 +17,6 @@ from pathlib import Path
 import pytest
 
 from somite.campaigns.builtin import BUDGETS, builtin
-from somite.campaigns.spec import parse
 from somite.campaigns.tasks import expand
 from somite.cli import main
 from somite.experiments.config import resolve

@@ -33,11 +33,10 @@ checked here, every error one line naming the field (``experiments.rq1.seeds``) 
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .._io import read_text
+from .._io import read_toml
 from ..errors import bad
 
 KINDS = ("evolve", "reassemble", "discover")
@@ -93,10 +92,7 @@ _KEYS = {
 def load(path: str | Path) -> Campaign:
     """A campaign file (TOML), checked."""
     path = Path(path)
-    try:
-        data = tomllib.loads(read_text(path, "campaign"))
-    except tomllib.TOMLDecodeError as error:
-        raise bad("campaign", str(path), f"not valid TOML ({error})") from None
+    data = read_toml(path, "campaign")
     return parse(data, name=path.stem, source=str(path))
 
 

@@ -12,6 +12,7 @@ from .._io import write_atomic
 from ..brain.genome import Genome
 from ..modules.discovery import partition_around, rank_candidates, score
 
+
 def write_discovery(out: Path, genome: Genome, name: str, b_min: int = 2, b_max: int = 5):
     """Rank the candidate modules of ``genome`` (named ``name`` in the file), partition its
     body around the most compact one and write ``partition.json`` and ``candidates.csv`` into

@@ -150,6 +150,10 @@ def _table(directory: Path, doc: dict, infos: list[dict]):
     return grid
 
 
+_SHOWN = 12
+"""Running tasks listed in the live view (a cluster may run hundreds)."""
+
+
 class LiveView:
     """The progress of a running campaign: tasks done / running / queued, generations, ETA,
     the running runs and the Dask dashboard's address. Nothing at all when ``quiet``."""
@@ -201,11 +205,13 @@ class LiveView:
             Text("dashboard: " + (self.dashboard or "none (Dask's needs bokeh: pip install "
                                   "'somite[dashboard]')")),
         ]
-        for info in now.running:
+        for info in now.running[:_SHOWN]:
             generation = "" if info["generation"] is None else (
                 f"  generation {info['generation']}/{info['generations']}"
                 f"  best v_x {_fmt(info['best'])}")
             lines.append(Text(f"  {info['id']}{generation}"))
+        if len(now.running) > _SHOWN:
+            lines.append(Text(f"  ... and {len(now.running) - _SHOWN} more running"))
         return Group(*lines)
 
     def __exit__(self, *exc) -> None:

@@ -18,6 +18,7 @@ import logging
 import os
 import time
 import uuid
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -68,8 +69,12 @@ def _client(scheduler: str | None, workers: int):
             return Client(scheduler, timeout="30s"), None
         except (OSError, TimeoutError) as error:
             raise bad("scheduler", scheduler, f"cannot connect ({error})") from None
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                           silence_logs=logging.ERROR)
+    with warnings.catch_warnings():
+        # "Port 8787 is already in use" (another cluster's dashboard): this one takes another
+        # port, and the progress view shows which.
+        warnings.filterwarnings("ignore", message="Port .* is already in use")
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               silence_logs=logging.ERROR)
     return Client(cluster), cluster
 
 
@@ -106,11 +111,13 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
         outcome.dashboard = dashboard_link(client, cluster is not None)
         token = uuid.uuid4().hex[:8]  # a scheduler may hold another campaign's tasks
         futures = {}
-        for task in tasks:
+        for rank, task in enumerate(tasks):
             needs = [futures[n] for n in task["needs"] if n in futures]
+            # Earlier tasks first (Dask's own order is not the campaign's): the runs of the
+            # first experiments finish first, and a killed campaign leaves few partial ones.
             futures[task["id"]] = client.submit(
                 run_task, str(directory), task, threads, *needs, key=f"{task['id']}@{token}",
-                pure=False, retries=retries)
+                pure=False, retries=retries, priority=len(tasks) - rank)
         needs = {t["id"]: t["needs"] for t in tasks}
         pending = dict(futures)
         while pending:

@@ -66,6 +66,25 @@ def test_bad_campaign_files_are_one_line_errors(tmp_path, capsys, text, field):
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("args, field", [
+    (["run", "smoke", "--workers", "0"], "workers"),
+    (["run", "smoke", "--threads", "0"], "threads"),
+    (["run", "smoke", "--scheduler", "nonsense"], "scheduler"),
+    (["run", "nothing-like-it"], "campaign"),
+    (["run", "--resume"], "campaign"),
+    (["run"], "campaign"),
+])
+def test_bad_options_are_one_line_errors(tmp_path, capsys, args, field):
+    err = _one_line_error(capsys, ["campaign", *args, "--out", str(tmp_path / "o")])
+    assert f"error: {field}=" in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_status_of_a_folder_without_a_campaign(tmp_path, capsys):
+    err = _one_line_error(capsys, ["campaign", "status", str(tmp_path)])
+    assert "error: campaign=" in err
+
+
 def test_builtins_share_the_structure_and_differ_in_budget():
     expanded = {name: expand(builtin(name)) for name in BUDGETS}
     shapes = {name: [(t["experiment"], t["kind"]) for t in tasks]

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 import time
 import uuid
 import warnings
@@ -48,6 +49,12 @@ def cores() -> int:
         return os.cpu_count() or 1
 
 
+def check_scheduler(address: str | None) -> None:
+    """A scheduler address such as ``tcp://HOST:PORT``, or a one-line error."""
+    if address is not None and not re.fullmatch(r"([a-z]+://)?[^\s:/]+:\d+", address):
+        raise bad("scheduler", address, "expected an address such as tcp://HOST:8786")
+
+
 def sizing(workers: int | None, threads: int | None) -> tuple[int, int]:
     """(worker processes, Numba threads per task) for a LocalCluster on this machine."""
     n = cores()
@@ -67,7 +74,7 @@ def _client(scheduler: str | None, workers: int):
     if scheduler:
         try:
             return Client(scheduler, timeout="30s"), None
-        except (OSError, TimeoutError) as error:
+        except (OSError, TimeoutError, ValueError) as error:
             raise bad("scheduler", scheduler, f"cannot connect ({error})") from None
     with warnings.catch_warnings():
         # "Port 8787 is already in use" (another cluster's dashboard): this one takes another

@@ -55,11 +55,13 @@ def load_campaign(name: str):
 
 def _run(args: argparse.Namespace) -> int:
     from ..campaigns import directory as campaign_dir
-    from ..campaigns.executor import execute, sizing
+    from ..campaigns.executor import check_scheduler, execute, sizing
     from ..campaigns.tasks import expand
     from ..experiments.lock import RunLock
 
-    sizing(args.workers, args.threads)  # bad sizes are refused before anything is written
+    # Bad sizes and addresses are refused before anything is written.
+    sizing(args.workers, args.threads)
+    check_scheduler(args.scheduler)
     if args.campaign is None and not args.resume:
         raise bad("campaign", None, "name a campaign (paper, quick, smoke or a .toml file)")
     doc = None

@@ -90,12 +90,14 @@ def finished(directory: Path, task: dict) -> bool:
 
 def state(directory: Path, task: dict) -> dict:
     """What the disk says of ``task``: ``state`` (done, running, partial or queued),
-    ``generation`` and ``generations`` (runs), ``best`` (a run's best v_x so far, a
-    reassembly's v_x on the validation terrains) and ``done`` (its done.json, if any)."""
+    ``generation`` and ``generations`` (runs), ``best`` (a run's logged best v_x so far, the
+    luckiest terrain draw), ``validation`` (its mean v_x on the validation terrains where the
+    last log row has it; a reassembly's v_x there) and ``done`` (its done.json, if any)."""
     folder = directory / task["path"]
     options = task["options"]
     info = {"id": task["id"], "kind": task["kind"], "state": "queued", "generation": None,
-            "generations": options.get("generations"), "best": None, "done": None}
+            "generations": options.get("generations"), "best": None, "validation": None,
+            "done": None}
     if not folder.is_dir():
         return info
     if (folder / DONE).is_file():
@@ -113,10 +115,11 @@ def state(directory: Path, task: dict) -> dict:
         if rows:
             info["generation"] = int(rows[-1]["generation"])
             info["best"] = _number(rows[-1]["best_velocity"])
+            info["validation"] = _number(rows[-1]["validation_velocity"])
     elif task["kind"] == "reassemble" and info["state"] == "done":
         try:
             report = json.loads((folder / "report.json").read_text(encoding="utf-8"))
-            info["best"] = report.get("validation", {}).get("v_reassembled")
+            info["validation"] = report.get("validation", {}).get("v_reassembled")
         except (OSError, ValueError):
             pass
     return info

@@ -136,19 +136,21 @@ def _fmt(value) -> str:
 
 
 def _table(directory: Path, doc: dict, infos: list[dict]):
-    """The table of every task: id, kind, state, generation/total, best v_x."""
+    """The table of every task: id, kind, state, generation/total, the logged best v_x (a
+    lucky draw of terrains) and the best's v_x on the validation terrains where measured."""
     from rich.table import Table
 
-    grid = Table(title=f"campaign {doc.get('name')} in {directory}")
-    for name in ("task", "kind", "state", "generation", "best v_x [m/s]"):
-        grid.add_column(name, justify="right" if name.startswith(("gen", "best")) else "left",
+    grid = Table(title=f"campaign {doc.get('name')} in {directory} (v_x in m/s)")
+    for name in ("task", "kind", "state", "generation", "best v_x", "validation v_x"):
+        grid.add_column(name, justify="left" if name in ("task", "kind", "state") else "right",
                         no_wrap=name == "task")
     for info in infos:
         generation = "-"
         if info["generations"] is not None:
             reached = "-" if info["generation"] is None else info["generation"]
             generation = f"{reached}/{info['generations']}"
-        grid.add_row(info["id"], info["kind"], info["state"], generation, _fmt(info["best"]))
+        grid.add_row(info["id"], info["kind"], info["state"], generation, _fmt(info["best"]),
+                     _fmt(info["validation"]))
     return grid
 
 

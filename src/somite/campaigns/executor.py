@@ -114,10 +114,10 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
     workers, threads = sizing(workers, threads)
     start = time.perf_counter()
     client, cluster = _client(scheduler, workers)
+    futures = {}
     try:
         outcome.dashboard = dashboard_link(client, cluster is not None)
         token = uuid.uuid4().hex[:8]  # a scheduler may hold another campaign's tasks
-        futures = {}
         for rank, task in enumerate(tasks):
             needs = [futures[n] for n in task["needs"] if n in futures]
             # Earlier tasks first (Dask's own order is not the campaign's): the runs of the
@@ -144,7 +144,7 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
             if pending:
                 time.sleep(0.5)
     except BaseException:
-        client.cancel(list(futures.values()) if "futures" in locals() else [])
+        client.cancel(list(futures.values()))
         raise
     finally:
         client.close()

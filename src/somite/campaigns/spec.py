@@ -19,7 +19,8 @@ A campaign is TOML (or the same structure as a dict, for the built-ins)::
     donors = "rq1"                # evolve experiment(s) whose bests are cut
     pairing = "next"              # run i + run i+1 of one shape; "cross": shape A i + shape B i
     partition = "paper"           # or modules_from = "<discover experiment>"
-    reoptimize = { generations = 510 }   # optional: re-evolve every reassembled robot
+    reoptimize = { generations = 510 }   # optional: re-evolve every reassembled robot, with
+                                         # the donors' run options and these on top
     [experiments.rq3-discovery]
     kind = "discover"
     genomes = "rq1"

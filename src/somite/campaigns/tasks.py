@@ -20,6 +20,9 @@ from ..sim.config import CONTROL_HZ
 from ..sim.partition import Partition
 from .spec import Campaign, Experiment
 
+REOPTIMIZE_GENERATIONS = 510
+"""A re-optimisation's length unless its experiment says otherwise (the paper's, and
+``somite reoptimize``'s default)."""
 RUN_EXTRAS = ("representation", "donors", "validation")
 """Options of an evolve or re-optimisation task that are not :class:`RunConfig` keys."""
 
@@ -107,9 +110,8 @@ def _reassemble(campaign: Campaign, exp: Experiment, runs: dict, tasks: list[dic
                     continue
                 own = {k: v for k, v in run.items() if k not in RUN_EXTRAS}
                 options = _run_options(where + ".reoptimize", {
-                    **own, "generations": campaign.defaults.get("generations", 3000),
-                    **exp.reoptimize, "shape": receiver, "seed": run["seed"],
-                    "start": reassembly["id"]})
+                    **own, "generations": REOPTIMIZE_GENERATIONS, **exp.reoptimize,
+                    "shape": receiver, "seed": run["seed"], "start": reassembly["id"]})
                 options.update(donors=reassembly["options"]["donors"],
                                validation=campaign.validation)
                 tasks.append(_task(exp, prefix + name + "-reopt", "reoptimize",
@@ -126,6 +128,8 @@ def _pairs(exp: Experiment, grid: dict, where: str):
         for shape, seeded in grid.items():
             if len(seeded) < 2:
                 raise bad(where + ".pairing", "next", f"needs two runs of {shape} at least")
+            if not exp.modules_from:
+                _modules(exp.partition, shape, where)
             for i, (seed, first) in enumerate(seeded):
                 other, second = seeded[(i + 1) % len(seeded)]
                 yield f"{shape}-s{seed}+s{other}", first, second, shape, None

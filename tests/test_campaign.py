@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 
 from somite.campaigns.builtin import BUDGETS, builtin
+from somite.campaigns.spec import parse
 from somite.campaigns.tasks import expand
 from somite.cli import main
 from somite.experiments.config import resolve
@@ -57,6 +58,12 @@ def _one_line_error(capsys, argv) -> str:
     ("validation = 0\n[experiments.a]\nkind = 'evolve'\nshapes = ['worm']\nseeds = 1\n",
      "validation"),
     ("[experiments.a\n", "campaign"),
+    ("[experiments.a]\nkind = 'evolve'\nshapes = ['biped']\nseeds = 2\n"
+     "[experiments.b]\nkind = 'reassemble'\ndonors = 'a'\npartition = 'worm-halves'\n",
+     "experiments.b.partition"),
+    ("[experiments.a]\nkind = 'evolve'\nshapes = ['worm']\nseeds = 2\n"
+     "[experiments.b]\nkind = 'reassemble'\ndonors = 'a'\nreoptimize = { foo = 1 }\n",
+     "experiments.b.reoptimize.foo"),
 ])
 def test_bad_campaign_files_are_one_line_errors(tmp_path, capsys, text, field):
     path = tmp_path / "bad.toml"
@@ -123,6 +130,20 @@ def test_tasks_follow_the_contract():
     assert reopt["options"]["start"] == "rq3-reassembly/biped-s0+s1"
     assert "rq3-discovery/biped-s0" in by_id["rq3-reassembly/biped-s0+s1"]["needs"]
     assert by_id["omega-reassembly/omega-10-worm-s0+s1-reopt"]["options"]["omega"] == 10.0
+
+
+def test_variants_are_a_dimension_of_the_grid():
+    campaign = parse({"defaults": {"generations": 5}, "experiments": {
+        "w": {"kind": "evolve", "shapes": ["worm"], "seeds": [4, 5],
+              "variants": {"strong": {"omega": 10.0}, "none": {}}},
+        "r": {"kind": "reassemble", "donors": "w", "reoptimize": {"population": 6}},
+    }}, name="mine", source="test")
+    tasks = {t["id"]: t for t in expand(campaign)}
+    assert tasks["w/strong-worm-s5"]["options"]["omega"] == 10.0
+    assert tasks["w/none-worm-s5"]["options"]["omega"] == 1.0
+    reopt = tasks["r/strong-worm-s5+s4-reopt"]["options"]
+    assert (reopt["omega"], reopt["population"], reopt["generations"]) == (10.0, 6, 510)
+    assert len(tasks) == 4 + 4 + 4
 
 
 def test_list_counts_the_tasks(capsys):

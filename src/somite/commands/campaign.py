@@ -83,7 +83,11 @@ def _run(args: argparse.Namespace) -> int:
         sys.stderr.write(f"somite campaign: {len(outcome.skipped)} tasks not run, as a task "
                          "they need failed\n")
     if not args.quiet:
-        print(f"{len(outcome.ran)} tasks run in {outcome.wall_s:.1f} s; "
+        ran = set(outcome.ran)
+        steps = sum((campaign_dir.state(out, t)["done"] or {}).get("robot_control_steps", 0)
+                    for t in doc["tasks"] if t["id"] in ran)
+        rate = f" ({steps / outcome.wall_s:,.0f} robot-control-steps/s)" if steps else ""
+        print(f"{len(outcome.ran)} tasks run in {outcome.wall_s:.1f} s{rate}; "
               f"`somite campaign status {out}` lists them")
     return 1 if outcome.failed or outcome.skipped else 0
 

@@ -280,3 +280,22 @@ def test_toml_seed_and_empty_shape_lists_are_refused(tmp_path, capsys):
     assert main(["bench", "--shapes", ","]) == 2
     assert "shapes=','" in capsys.readouterr().err
     assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["evolve", "--out", ""], "out='': is empty"),
+        (["draw", "genome.json", "--out", ""], "out='': is empty"),
+        (["evolve", "--modules", "x", "--out", "run"], "partition='x'"),  # omega 1: not used
+        (["evolve", "--omega", "1e308", "--out", "run"], "omega=1e+308: must be at most"),
+        (["simulate", "--terrain", "hilly-1-10-" + "9" * 400], "characters)"),  # cut short
+        (["evolve", "--out", "/proc/somite-test"], "cannot write in /proc"),
+    ],
+)
+def test_refused_before_anything_is_written(args, message, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err and len(err) < 300, err
+    assert list(tmp_path.iterdir()) == []

@@ -1,10 +1,12 @@
-"""Hostile input, generated: random corruptions of every file format somite reads and random
-values for the CLI's numbers each end in exit 0, or one line and exit 2 (never a traceback),
-and change nothing outside ``--out`` (issue 10)."""
+"""Hostile input, generated: random corruptions of every file format somite reads, random
+values for the CLI's numbers and random arguments to each of the 16 commands each end in exit
+0, or one line and exit 2 (never a traceback), and change nothing outside ``--out``; a refused
+command writes nothing (issue 10)."""
 
 from __future__ import annotations
 
 import json
+import os
 import shutil
 from pathlib import Path
 
@@ -90,7 +92,7 @@ def snapshot(root: Path, out: Path) -> dict:
             if p.is_file() and out not in p.parents and p != out}
 
 
-def one_line_or_success(args: list[str], capsys) -> None:
+def one_line_or_success(args: list[str], capsys) -> int:
     try:
         code = main(args)
     except SystemExit as stop:  # argparse refusing an argument
@@ -99,6 +101,7 @@ def one_line_or_success(args: list[str], capsys) -> None:
     assert code in (0, 2), (args, code, err)
     if code == 2:
         assert err.count("\n") == 1 and "Traceback" not in err, (args, err)
+    return code
 
 
 def fuzz_file(files: Path, tmp_path: Path, name: str, original: Path, data: bytes, command,
@@ -121,20 +124,45 @@ COMMANDS = {
     "found/partition.json": ["draw", "{root}/genome.json", "--partition",
                              "{root}/found/partition.json", "--out", "{out}/b.svg"],
     "library/back.json": ["module", "list", "{root}/library"],
-    "run/checkpoint.json": ["evolve", "--out", "{root}/run", "--resume", "--quiet"],
-    "run/config.json": ["evolve", "--out", "{root}/run", "--resume", "--quiet"],
+    # --generations: a config.json without the key would go on for the default 3000.
+    "run/checkpoint.json": ["evolve", "--out", "{root}/run", "--resume", "--quiet",
+                            "--generations", "1"],
+    "run/config.json": ["evolve", "--out", "{root}/run", "--resume", "--quiet",
+                        "--generations", "1"],
 }
 
 
-@pytest.mark.parametrize("name", COMMANDS)
+MORE = {
+    # The same files read by the other commands that take them.
+    "genome.json discover": ["discover", "{root}/genome.json", "--out", "{out}/found"],
+    "genome.json module export": ["module", "export", "{root}/genome.json", "--partition",
+                                  "worm-halves", "--module", "back", "--out", "{out}/m.json"],
+    "genome.json reassemble": ["reassemble", "{root}/genome.json", "{root}/run/best.json",
+                               "--partition", "worm-halves", "--out", "{out}/r",
+                               "--validation", "1", "--duration", "0.5"],
+    "genome.json show": ["show", "{root}/genome.json", "--duration", "0.5", "--out",
+                         "{out}/s.png"],
+    "genome.json reoptimize": ["reoptimize", "{root}/genome.json", "--population", "2",
+                               "--generations", "0", "--duration", "0.5", "--validation", "1",
+                               "--quiet", "--out", "{out}/re"],
+    "library/back.json assemble": ["assemble", "{root}/library", "--place", "back@0,0",
+                                   "--out", "{out}/a"],
+    "found/partition.json reassemble": ["reassemble", "{root}/genome.json", "{root}/genome.json",
+                                        "--partition", "{root}/found/partition.json", "--out",
+                                        "{out}/r", "--validation", "0"],
+}
+
+
+@pytest.mark.parametrize("name", [*COMMANDS, *MORE])
 def test_corrupted_files(name, files, tmp_path_factory, capsys):
-    original = files / name
+    original = files / name.split(" ")[0]
+    command = COMMANDS.get(name) or MORE[name]
     tmp = tmp_path_factory.mktemp("corrupt")
 
-    @FUZZ
+    @settings(FUZZ, max_examples=60 if name in COMMANDS else 30)
     @given(data=corruption(original.read_text()))
     def run(data):
-        fuzz_file(files, tmp, "copy", original, data, COMMANDS[name], capsys)
+        fuzz_file(files, tmp, "copy", original, data, command, capsys)
 
     run()
 
@@ -173,5 +201,138 @@ def test_random_numbers_on_the_command_line(command, files, tmp_path_factory, ca
             return  # too long or valid but long episodes: tested elsewhere
         one_line_or_success([*args, f"{option}={value}"], capsys)
         assert snapshot(files, out) == before
+
+    run()
+
+
+# -- every command, random arguments ------------------------------------------------------------
+#
+# Each command starts from a quick valid invocation; one of its arguments (an option, or a
+# positional given as "@i") is replaced by a random value: a number, a word, or a path to
+# something that is not what the command wants (a folder, a FIFO, a file that is not JSON or
+# not UTF-8, a damaged genome, a path below a file, a place no one may write). Inputs must be
+# left as they were.
+
+EVERY = {
+    "assemble": (["assemble", "{root}/library", "--place", "back@0,0", "--out", "{out}/a",
+                  "--evaluate", "1", "--duration", "0.5"],
+                 ["@1", "--place", "--out", "--evaluate", "--duration", "--seed", "--preset"]),
+    "bench": (["bench", "--robots", "4", "--duration", "0.2", "--shapes", "worm",
+               "--no-scaling"], ["--robots", "--duration", "--shapes"]),
+    "demo": (["demo", "--generations", "-1", "--out", "{out}/demo", "--quiet"],
+             ["--generations", "--out"]),
+    "discover": (["discover", "{root}/run", "--out", "{out}/found"],
+                 ["@1", "--out", "--min", "--max"]),
+    "draw": (["draw", "{root}/genome.json", "--out", "{out}/b.svg"],
+             ["@1", "--out", "--partition"]),
+    "evaluate": (["evaluate", "{root}/genome.json", "--duration", "0.5", "--validation", "1"],
+                 ["@1", "--validation", "--terrain", "--duration", "--seed", "--preset"]),
+    "evolve": (["evolve", "--out", "{out}/run", "--population", "2", "--generations", "0",
+                "--duration", "0.5", "--quiet"],
+               ["--out", "--config", "--shape", "--sensors", "--terrain", "--modules",
+                "--population", "--duration", "--seed", "--omega", "--evaluations", "--preset"]),
+    "module export": (["module", "export", "{root}/run", "--partition", "worm-halves",
+                       "--module", "back", "--out", "{out}/m.json"],
+                      ["@2", "--partition", "--module", "--velocity", "--out"]),
+    "module list": (["module", "list", "{root}/library"], ["@2"]),
+    "plot": (["plot", "{root}/run", "--out", "{out}/p.png"],
+             ["@1", "--out", "--group-by", "--kind"]),
+    "reassemble": (["reassemble", "{root}/run", "{root}/genome.json", "--partition",
+                    "worm-halves", "--out", "{out}/r", "--validation", "1", "--duration", "0.5"],
+                   ["@1", "@2", "--partition", "--out", "--receiver-shape", "--take",
+                    "--receiver-partition", "--validation", "--duration"]),
+    "report": (["report", "{pool}/folder", "--out", "{out}/report", "--quiet"],
+               ["@1", "--out", "--validation"]),
+    "reoptimize": (["reoptimize", "{root}/genome.json", "--donors", "{root}/run",
+                    "--population", "2", "--generations", "0", "--duration", "0.5",
+                    "--validation", "1", "--quiet", "--out", "{out}/re"],
+                   ["@1", "--donors", "--out", "--population", "--validation", "--config",
+                    "--duration"]),
+    "show": (["show", "{root}/genome.json", "--duration", "0.5", "--out", "{out}/s.png"],
+             ["@1", "--out", "--terrain", "--frames", "--fps", "--width", "--height"]),
+    "simulate": (["simulate", "--duration", "0.5", "--json"],
+                 ["--shape", "--sensors", "--terrain", "--controller", "--duration", "--seed",
+                  "--preset"]),
+}
+
+VALUES = st.sampled_from([
+    # numbers
+    "nan", "-inf", "-1", "0", "1", "1e308", "1e-9", "99999999999999999999", "0.001", "1e-300",
+    # words
+    "", "x", ",", "worm", "1111/1111", "1x1", "back@0,0", "back@-5,99999", "@", "a=b:c",
+    "hilly-1-10-3", "paper", "\udcff",
+    # paths
+    "{pool}/missing", "{pool}/folder", "{pool}/fifo", "{pool}/text.json", "{pool}/latin1.toml",
+    "{pool}/deep.json", "{pool}/huge-weight.json", "{pool}/text.json/below", "/proc/somite",
+    "{root}/run", "{root}/genome.json", "{root}/library/back.json", "{root}/found/partition.json",
+])
+
+SLOW = {("demo", "--generations"): {"0", "1"}}
+"""Valid values that would start a long run (the demo's 48 robots, 20 s episodes and video):
+not tried."""
+REFUSED_ONLY = {"demo", "report"}
+"""Commands fuzzed from a refused start (the demo is long, a campaign costs minutes to build):
+every value must be refused."""
+
+
+def make_pool(pool: Path, genome: Path) -> None:
+    """Files that are not what a command wants, made again for each example."""
+    shutil.rmtree(pool, ignore_errors=True)
+    (pool / "folder").mkdir(parents=True)
+    os.mkfifo(pool / "fifo")
+    (pool / "text.json").write_text("not json at all\n")
+    (pool / "latin1.toml").write_bytes(b"seed = 1 # caf\xe9\n")
+    (pool / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    data = json.loads(genome.read_text())
+    data["edges"][0]["weight"] = 1e308
+    (pool / "huge-weight.json").write_text(json.dumps(data))
+
+
+def with_value(base: list[str], name: str, value: str) -> list[str]:
+    if name.startswith("@"):
+        at = int(name[1:])
+        return [*base[:at], value, *base[at + 1:]]
+    return [*base, f"{name}={value}"]
+
+
+@pytest.mark.parametrize("command", EVERY)
+def test_random_arguments_to_every_command(command, files, tmp_path_factory, capsys,
+                                           monkeypatch):
+    base, names = EVERY[command]
+    tmp = tmp_path_factory.mktemp("every")
+    root, out, pool, cwd = tmp / "root", tmp / "out", tmp / "pool", tmp / "cwd"
+
+    def fresh(*args: str) -> list[str]:
+        # The inputs too: an --out among them may be written (module export --out genome.json).
+        for folder in (root, out):
+            shutil.rmtree(folder, ignore_errors=True)
+        shutil.copytree(files, root)
+        out.mkdir()
+        for path in cwd.iterdir():
+            shutil.rmtree(path) if path.is_dir() else path.unlink()
+        make_pool(pool, files / "genome.json")
+        return [a.format(root=root, out=out, pool=pool) for a in args]
+
+    cwd.mkdir()
+    monkeypatch.chdir(cwd)  # a relative --out lands here
+    if command not in REFUSED_ONLY:
+        assert main(fresh(*base)) == 0, "the starting point must be a valid command"
+        capsys.readouterr()
+
+    @settings(FUZZ, max_examples=80)
+    @given(name=st.sampled_from(names), value=VALUES)
+    def run(name, value):
+        if value in SLOW.get((command, name), ()):
+            return
+        args = fresh(*with_value(base, name, value))
+        # Asked to write among the inputs (--out {root}/run), a command may change that.
+        mine = Path(value.format(root=root, out=out, pool=pool)) if name == "--out" else out
+        before = snapshot(root, mine)
+        code = one_line_or_success(args, capsys)
+        assert snapshot(root, mine) == before
+        if code == 2:  # refused: nothing written
+            assert [*out.iterdir(), *cwd.iterdir()] == [], args
+        if command in REFUSED_ONLY:
+            assert code == 2, args
 
     run()

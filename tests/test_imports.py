@@ -12,6 +12,7 @@ Read statically from the source, so an import inside a function counts like one 
   ``experiments``, ``analysis`` and ``viz`` above those; ``campaigns`` (experiments on Dask)
   above ``experiments``; ``commands`` and ``cli`` on top;
 - plotting and imaging libraries only in ``viz``; the progress bar only in the command line.
+- ``report`` (a campaign's report) reads every part below the command line, which imports it.
 """
 
 from __future__ import annotations
@@ -35,10 +36,11 @@ ALLOWED = {
     "experiments": {"sim", "brain", "tasks", "evolution", "modules"},
     "analysis": {"sim", "brain", "tasks", "evolution", "modules", "experiments"},
     "viz": {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis"},
+    "report": BELOW_TOP | {"__init__"},
     "bench": {"sim", "brain", "tasks"},
     "campaigns": {"sim", "brain", "tasks", "evolution", "modules", "experiments"},
     "__init__": BELOW_TOP,
-    "commands": BELOW_TOP | {"commands", "__init__"},
+    "commands": BELOW_TOP | {"commands", "__init__", "report"},
     "cli": {"commands"},
 }
 """Part of somite -> the other parts it may import (besides the foundation)."""

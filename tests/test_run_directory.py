@@ -13,11 +13,14 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from somite.cli import main
 from somite.errors import SomiteError
+from somite.evolution.operators import initial_genome
 from somite.experiments.lock import LOCK_NAME, RunLock
+from somite.sim.body import Body
 
 ARGS = ["evolve", "--shape", "worm", "--population", "10", "--generations", "30",
         "--duration", "2", "--seed", "5", "--checkpoint-every", "4", "--quiet"]
@@ -57,9 +60,9 @@ def whole(tmp_path_factory) -> Path:
     return out
 
 
-def assert_same_run(run: Path, whole: Path) -> None:
+def assert_same_run(run: Path, whole: Path, *more: str) -> None:
     assert rows(run) == rows(whole)
-    for name in ("best.json", "bests.jsonl"):
+    for name in ("best.json", "bests.jsonl", *more):
         assert (run / name).read_bytes() == (whole / name).read_bytes(), name
 
 
@@ -142,31 +145,48 @@ SHORT = ["evolve", "--shape", "worm", "--population", "6", "--generations", "3",
          "--duration", "2", "--seed", "2", "--checkpoint-every", "2", "--quiet"]
 
 
-@pytest.mark.parametrize("mode", ["replace", "append"])
-def test_a_kill_at_any_file_write_resumes_to_the_same_run(tmp_path, mode):
-    """Killed at each write of a run in turn: each atomic write (the first: the manifest,
-    before any checkpoint) between its temporary file and its rename, or each append to
-    log.csv and bests.jsonl half-way through its line. ``--resume`` ends in the uninterrupted
-    run's files, temporary files gone."""
+def kill_at_each_write(tmp_path: Path, mode: str, args: list[str], *more: str) -> int:
+    """Kill a run of ``args`` at each of its writes in turn: each atomic write (the first: the
+    manifest, before any checkpoint) between its temporary file and its rename, or each append
+    to log.csv and bests.jsonl half-way through its line. ``--resume`` must end in the
+    uninterrupted run's files (and ``more``), temporary files gone. Returns the number of the
+    first write that was not reached (the run went through)."""
     whole = tmp_path / "whole"
-    assert main([*SHORT, "--out", str(whole)]) == 0
+    assert main([*args, "--out", str(whole)]) == 0
     kill_at = 0
     while True:
         kill_at += 1
         run = tmp_path / f"killed-{kill_at}"
-        child = subprocess.run([sys.executable, "-c", KILLER, mode, str(kill_at), *SHORT,
+        child = subprocess.run([sys.executable, "-c", KILLER, mode, str(kill_at), *args,
                                 "--out", str(run)])
         if child.returncode == 0:
-            break
+            return kill_at
         assert child.returncode == -signal.SIGKILL
         if mode == "replace":
             assert any(p.name.endswith(".tmp") for p in run.iterdir())
-        assert main([*SHORT, "--out", str(run), "--resume"]) == 0, kill_at
-        assert_same_run(run, whole)
+        assert main([*args, "--out", str(run), "--resume"]) == 0, kill_at
+        assert_same_run(run, whole, *more)
         assert sorted(p.name for p in run.iterdir()) == sorted(p.name for p in whole.iterdir())
+
+
+@pytest.mark.parametrize("mode", ["replace", "append"])
+def test_a_kill_at_any_file_write_resumes_to_the_same_run(tmp_path, mode):
     # replace: manifest, config, log, bests, then best.json and checkpoint at 0, 2 and 3;
     # append: a log row and a best genome for each of generations 0 to 3.
-    assert kill_at == (11 if mode == "replace" else 9)
+    assert kill_at_each_write(tmp_path, mode, SHORT) == (11 if mode == "replace" else 9)
+
+
+@pytest.mark.parametrize("mode", ["replace", "append"])
+def test_a_kill_at_any_file_write_of_reoptimize_resumes_to_the_same_result(tmp_path, mode):
+    genome = initial_genome(Body.build("worm"), np.random.default_rng(4))
+    start = str(genome.save(tmp_path / "start.json"))
+    args = ["reoptimize", start, "--donors", start, "--population", "4", "--generations",
+            "2", "--duration", "1", "--validation", "1", "--seed", "2", "--checkpoint-every",
+            "2", "--quiet"]
+    # replace: manifest, config, log, bests, best.json and checkpoint at 0 and 2, then the
+    # manifest with transfer.csv and transfer.csv; append: generations 0 to 2.
+    count = kill_at_each_write(tmp_path, mode, args, "transfer.csv")
+    assert count == (11 if mode == "replace" else 7)
 
 
 def test_a_kill_as_soon_as_the_directory_exists_resumes(tmp_path):
@@ -291,3 +311,15 @@ def test_a_killed_reoptimize_force_leaves_no_old_transfer_csv(tmp_path):
     assert not (tmp_path / "re" / "transfer.csv").exists()
     assert main([*args, "--resume"]) == 0
     assert (tmp_path / "re" / "transfer.csv").is_file()
+
+
+def test_a_left_over_output_check_file_is_the_run_s_own(tmp_path):
+    """A kill between creating and deleting the file that tries an output folder leaves
+    ``.somite-check.*``: neither --force nor --resume stumbles on it, --resume removes it."""
+    run = tmp_path / "run"
+    assert main([*SHORT, "--out", str(run)]) == 0
+    (run / ".somite-check.abc123").write_text("")
+    assert main([*SHORT, "--out", str(run), "--force"]) == 0
+    (run / ".somite-check.abc123").write_text("")
+    assert main([*SHORT, "--out", str(run), "--resume", "--generations", "4"]) == 0
+    assert not (run / ".somite-check.abc123").exists()

@@ -115,7 +115,8 @@ def state(name: str):
 def run_kernel(kernel, pos, vel, actuation, substeps=1):
     robot, ground, scratch, params = kernel
     pos, vel = pos.copy(), vel.copy()
-    set_rest_lengths(robot, scratch, actuation, params)
+    set_rest_lengths(robot.n_voxels, robot.n_springs, robot.owners, robot.rest0, actuation,
+                     params.contract, params.expand, scratch.factor, scratch.rest)
     for _ in range(substeps):
         substep(robot, ground, scratch, pos, vel, params)
     return pos, vel, scratch.contact.copy(), scratch.rest.copy()
@@ -166,7 +167,8 @@ def test_a_whole_control_step_matches_the_reference(name):
             model, expected_pos, expected_vel, rest)
     reference.enforce_min_lengths(model, expected_pos, expected_vel)
     got_pos, got_vel, contact, _ = run_kernel(kernel, pos, vel, actuation, CONFIG.substeps)
-    enforce_min_lengths(robot, got_pos, got_vel)
+    enforce_min_lengths(robot.n_springs, robot.ends, robot.min_length, robot.inv_mass, got_pos,
+                        got_vel)
     np.testing.assert_allclose(got_pos, expected_pos, rtol=0, atol=1e-10)
     np.testing.assert_allclose(got_vel, expected_vel, rtol=0, atol=1e-10)
     np.testing.assert_array_equal(contact, expected_contact)

@@ -236,7 +236,7 @@ def fake_run(root, name, config, final_velocity, n_generations=4, drop_log=False
         v = final_velocity * (g + 1) / n_generations
         size = 50 + 3 * g
         rows.append(f"{g},{96 * (g + 1)},{0.5 * g},{v},{v / 2},{v / 4},{size // 2},"
-                    f"{size - size // 2},{size},{size - 4},add_edge,0,{v / 3 if g % 2 else ''}")
+                    f"{size - size // 2},{size},{size - 4},add_edge,0,0,{v / 3 if g % 2 else ''}")
     (path / "log.csv").write_text("\n".join(rows) + "\n")
     return path
 

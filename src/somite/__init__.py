@@ -43,6 +43,7 @@ _EXPORTS = {
     "RunConfig": "somite.experiments.config",
     "resolve": "somite.experiments.config",
     "evolve": "somite.experiments.runner",
+    "evolve_lockstep": "somite.experiments.lockstep",
     "SomiteError": "somite.errors",
 }
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import tempfile
 import uuid
 from pathlib import Path
 
@@ -12,18 +13,59 @@ def write_atomic(path: str | os.PathLike, text: str) -> Path:
     path = Path(path)
     # Not tempfile.mkstemp: its files are private (0600); os.open with 0666 honours the umask.
     tmp = path.parent / f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
-    handle = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    try:
+        handle = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    except OSError as error:
+        raise _cannot_write(path, error) from None
     try:
         with os.fdopen(handle, "w", encoding="utf-8") as out:
             out.write(text)
             out.flush()
             os.fsync(out.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as error:
         # Never leave a half-written temp file beside the real ones.
         tmp.unlink(missing_ok=True)
+        if isinstance(error, OSError):  # a full disk, a folder that went away, ...
+            raise _cannot_write(path, error) from None
         raise
     return path
+
+
+def _cannot_write(path: Path, error: OSError):
+    from .errors import bad
+
+    return bad("out", str(path), f"cannot write it ({error.strerror or error})")
+
+
+def make_folder(path: str | os.PathLike, field: str = "out") -> Path:
+    """``mkdir -p`` an output folder, or a one-line error naming ``field``."""
+    from .errors import bad
+
+    path = Path(path)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise bad(field, str(path), f"cannot create it ({error.strerror or error})") from None
+    return path
+
+
+CHECK_PREFIX = ".somite-check."
+"""The name of the file :func:`_try_writing` creates and deletes at once (a kill may leave it)."""
+
+
+def _try_writing(folder: Path, field: str, shown: Path) -> None:
+    """Create and delete a file in ``folder``: ``os.access`` does not know every refusal (root
+    in /proc or /sys, some network file systems), a try does."""
+    from .errors import bad
+
+    try:
+        handle, name = tempfile.mkstemp(prefix=CHECK_PREFIX, dir=folder)
+    except OSError as error:
+        raise bad(field, str(shown), f"cannot write in {folder} ({error.strerror or error})"
+                  ) from None
+    os.close(handle)
+    os.unlink(name)
 
 
 def _nearest_existing(path: Path) -> Path:
@@ -44,6 +86,7 @@ def _check_creatable(path: Path, field: str) -> None:
         raise bad(field, str(path), f"{above} is not a folder")
     if not os.access(above, os.W_OK | os.X_OK):
         raise bad(field, str(path), f"cannot write in {above} (permission denied or read-only)")
+    _try_writing(above, field, path)
 
 
 def check_output_folder(path: str | os.PathLike, field: str = "out") -> Path:
@@ -59,6 +102,7 @@ def check_output_folder(path: str | os.PathLike, field: str = "out") -> Path:
             raise bad(field, str(path), "exists and is not a folder")
         if not os.access(path, os.W_OK | os.X_OK):
             raise bad(field, str(path), "cannot write in it (permission denied or read-only)")
+        _try_writing(path, field, path)
         return path
     _check_creatable(path, field)
     return path

@@ -5,7 +5,11 @@ processes), without fastmath (results must be reproducible bit for bit) and with
 error model (a division by zero gives inf/nan instead of raising inside a kernel).
 """
 
+import functools
+import types
+
 import numba
+from numba.core.registry import CPUDispatcher
 
 _OPTIONS = {"cache": True, "fastmath": False, "error_model": "numpy", "nogil": True}
 
@@ -16,3 +20,24 @@ def njit(*args, **kwargs):
     if args and callable(args[0]):
         return numba.njit(**options)(args[0])
     return numba.njit(**options)
+
+
+@functools.cache
+def device_twin(kernel):
+    """The CUDA device function compiled from the same Python source as ``kernel`` (a
+    function decorated with :func:`njit`): the functions it calls are replaced by their own
+    twins, so one source serves both backends. Needs numba-cuda; under its simulator
+    (``NUMBA_ENABLE_CUDASIM=1``) the twin runs as plain Python."""
+    from numba import cuda
+
+    source = kernel.py_func
+    names = dict(source.__globals__)
+    for name in source.__code__.co_names:
+        value = names.get(name)
+        if isinstance(value, CPUDispatcher):
+            names[name] = device_twin(value)
+    twin = types.FunctionType(source.__code__, names, source.__name__, source.__defaults__,
+                              source.__closure__)
+    twin.__qualname__ = source.__qualname__
+    twin.__module__ = source.__module__
+    return cuda.jit(device=True)(twin)

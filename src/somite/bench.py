@@ -61,9 +61,11 @@ def random_graph(body: Body, size: int, rng: np.random.Generator) -> GraphArrays
 
 
 def bench_population(
-    shape: str, n_robots: int = 96, duration: float = 30.0, size: int = 200, seed: int = 0
+    shape: str, n_robots: int = 96, duration: float = 30.0, size: int = 200, seed: int = 0,
+    backend: str = "cpu",
 ) -> dict:
-    """Time one population of ``n_robots`` random controllers of ``shape`` on hilly terrains."""
+    """Time one population of ``n_robots`` random controllers of ``shape`` on hilly terrains
+    (the CUDA backend's time includes copying the batch to the GPU and the trace back)."""
     rng = np.random.default_rng(seed)
     body = Body.build(shape)
     config = SimConfig(duration=duration)
@@ -72,11 +74,12 @@ def bench_population(
     system = compile_system([body] * n_robots, terrains)
     controllers = compile_controllers(graphs, [body.shape.n_voxels] * n_robots)
     start = time.perf_counter()
-    trace = run(system, controllers, config, list(range(n_robots)))
+    trace = run(system, controllers, config, list(range(n_robots)), backend=backend)
     wall = time.perf_counter() - start
     steps = n_robots * config.n_steps
     return {
         "shape": shape,
+        "backend": backend,
         "robots": n_robots,
         "controller_size": int(np.mean([g.n_nodes + g.n_edges for g in graphs])),
         "steps_per_robot": config.n_steps,
@@ -86,15 +89,18 @@ def bench_population(
     }
 
 
-def compile_seconds() -> dict:
-    """Time of the first kernel call in this process: compiling, or loading from the cache."""
+def compile_seconds(backend: str = "cpu") -> dict:
+    """Time of the first kernel call in this process: compiling, or loading from the cache
+    (the CUDA kernel is compiled in every process)."""
     body = Body.build("worm")
     rng = np.random.default_rng(0)
     system = compile_system([body], [hilly(1.0, 10.0, 0)])
     controllers = compile_controllers([random_graph(body, 200, rng)], [body.shape.n_voxels])
     start = time.perf_counter()
-    run(system, controllers, SimConfig(duration=1 / 60), [0])
+    run(system, controllers, SimConfig(duration=1 / 60), [0], backend=backend)
     elapsed = time.perf_counter() - start
+    if backend != "cpu":
+        return {"compile_seconds": round(elapsed, 3)}
     stats = run_batch.stats
     return {
         "compile_or_cache_load_seconds": round(elapsed, 3),
@@ -103,7 +109,8 @@ def compile_seconds() -> dict:
 
 
 def bench(
-    shapes=("worm", "biped"), n_robots: int = 96, duration: float = 30.0, scaling: bool = True
+    shapes=("worm", "biped"), n_robots: int = 96, duration: float = 30.0, scaling: bool = True,
+    backend: str = "cpu",
 ) -> dict:
     """The full benchmark report (a JSON-ready dict)."""
     report = {
@@ -116,11 +123,13 @@ def bench(
             "numba": numba.__version__,
             "numpy": np.__version__,
         },
-        "compile": compile_seconds(),
-        "populations": [bench_population(s, n_robots, duration) for s in shapes],
+        "compile": compile_seconds(backend),
+        "populations": [bench_population(s, n_robots, duration, backend=backend)
+                        for s in shapes],
     }
     if scaling:
         report["scaling_worm"] = [
-            bench_population("worm", n, duration) for n in (n_robots // 4, n_robots // 2, n_robots)
+            bench_population("worm", n, duration, backend=backend)
+            for n in (n_robots // 4, n_robots // 2, n_robots)
         ]
     return report

@@ -11,7 +11,7 @@ import pkgutil
 import sys
 
 from . import commands
-from .errors import SomiteError
+from .errors import SomiteError, bad
 
 
 def command_names() -> list[str]:
@@ -46,9 +46,17 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    # A file name that is not UTF-8 (bytes given on the command line) is printed escaped,
+    # not turned into a UnicodeEncodeError after the work is done.
+    for stream in (sys.stdout, sys.stderr):
+        if hasattr(stream, "reconfigure"):
+            stream.reconfigure(errors="backslashreplace")
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        if getattr(args, "out", None) == "":
+            # Path("") is ".": an empty --out would write into the current folder.
+            raise bad("out", "", "is empty; name the file or folder to write")
         return int(args.handler(args) or 0)
     except SomiteError as error:
         sys.stderr.write(f"{args.prog}: error: {error}\n")

@@ -22,6 +22,8 @@ MAX_VALIDATION = 1_000
 MAX_FRAMES = 1_000
 """Tiles of a time-lapse strip."""
 MIN_FPS = 1.0
+MAX_OMEGA = 1e100
+"""The modularity bias omega (the paper's: 10)."""
 MAX_WEIGHT = 1e100
 """An edge's weight or bias (evolved ones stay within a few units): sums over any genome's
 edges stay finite."""

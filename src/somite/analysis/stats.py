@@ -28,7 +28,7 @@ from ..errors import bad
 from ..experiments.logfile import LOG_COLUMNS
 
 NUMERIC_COLUMNS = tuple(c for c in LOG_COLUMNS if c != "best_operator")
-OPTIONAL_COLUMNS = ("validation_velocity",)
+OPTIONAL_COLUMNS = ("validation_velocity", "non_finite_episodes")
 """Columns that logs written before they existed lack (read as NaN)."""
 
 

@@ -13,7 +13,7 @@ from .._math import sigmoid, tanh
 from .kinds import HIDDEN, SENSOR
 
 
-@njit
+@njit(_nrt=False)
 def graph_step(n_nodes, node_kind, node_ref, n_edges, src, dst, weight, bias,
                h_prev, h_next, readings, actuation, hidden_sigmoid):
     """One control step: ``h_next`` from ``h_prev`` and ``readings``; writes ``actuation``.

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from .._io import check_output_folder, write_atomic
+from .._io import check_output_folder, make_folder, write_atomic
 from ..errors import bad
 from ..modules.library import assemble, list_library, parse_placement
 from .common import add_simulation_options, simulation_config
@@ -38,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     ]
     genome = assemble(placements)
     evaluation = _evaluate(args, genome, config) if args.evaluate else None
-    out.mkdir(parents=True, exist_ok=True)
+    make_folder(out)
     genome.save(out / "assembled.json")
     if evaluation is not None:
         text = json.dumps(evaluation, indent=1, allow_nan=False) + "\n"

@@ -6,6 +6,8 @@ import argparse
 
 from ..bench import bench
 from ..errors import bad
+from ..limits import MAX_POPULATION, at_most
+from ..tasks.backends import check_backend
 from .common import add_options, print_json
 
 HELP = "Time the simulation kernel (96 random ~200-element controllers, hilly, 30 s); JSON."
@@ -16,16 +18,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_options(parser, "duration")
     parser.add_argument("--shapes", default="worm,biped", help="comma-separated shapes")
     parser.add_argument("--no-scaling", action="store_true", help="skip the scaling runs")
+    add_options(parser, "backend")
 
 
 def run(args: argparse.Namespace) -> int:
 
     if args.robots < 4:
         raise bad("robots", args.robots, "must be at least 4")
+    at_most("robots", args.robots, MAX_POPULATION)
     if not args.duration > 0:
         raise bad("duration", args.duration, "must be positive")
     shapes = tuple(s for s in args.shapes.split(",") if s)
     if not shapes:
         raise bad("shapes", args.shapes, "name at least one shape")
-    print_json(bench(shapes, args.robots, args.duration, scaling=not args.no_scaling))
+    backend = check_backend(args.backend)
+    print_json(bench(shapes, args.robots, args.duration, scaling=not args.no_scaling,
+                     backend=backend))
     return 0

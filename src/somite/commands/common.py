@@ -31,6 +31,16 @@ def print_json(data) -> None:
     sys.stdout.write("\n")
 
 
+def warn(prog: str, message: str) -> None:
+    """A warning: one line on stderr, beside a result that is still given."""
+    sys.stderr.write(f"{prog}: warning: {message}\n")
+
+
+NON_FINITE = ("a controller output or the physics state was NaN or infinite (actuation is "
+              "clamped to [-1, 1], NaN as -1; the physics stops the episode)")
+"""What a non-zero ``non_finite`` means, for the warnings of the commands that report it."""
+
+
 def add_genome(parser: argparse.ArgumentParser, name: str = "genome", role: str = "") -> None:
     """A positional genome argument, read by :func:`load_genome`; ``role`` says whose it is."""
     what = f"{role}: " if role else ""
@@ -82,6 +92,8 @@ _SHARED = {
     "shape": ({}, "biped, worm, WxH or rows like 1111/1001"),
     "sensors": ({}, "sensor preset: paper, none, area or all"),
     "validation": ({"type": int, "metavar": "N"}, "how many fixed validation terrains"),
+    "backend": ({"default": "cpu"}, "where episodes run: cpu (default), or cuda (an NVIDIA GPU; "
+                "pip install somite[cuda]); not part of a run's configuration"),
     "json": ({"action": "store_true"}, "print JSON"),
     "quiet": ({"action": "store_true"}, "print nothing while running"),
 }

@@ -10,7 +10,15 @@ from ..errors import bad
 from ..sim.terrain import parse_terrain
 from ..tasks.validation import evaluate_outcomes, validation_terrains
 from ..tasks.velocity import mean_velocity
-from .common import add_options, add_simulation_options, load_genome, print_json, simulation_config
+from .common import (
+    NON_FINITE,
+    add_options,
+    add_simulation_options,
+    load_genome,
+    print_json,
+    simulation_config,
+    warn,
+)
 
 HELP = "Evaluate a genome (file or run directory) on validation terrains; per-terrain v_x."
 
@@ -40,12 +48,14 @@ def run(args: argparse.Namespace) -> int:
         "genome": args.genome,
         "terrains": {t.name: o.velocity for t, o in zip(terrains, outcomes)},
         "mean_velocity": None if np.isnan(mean) else mean,
-        "non_finite": int(np.isnan(velocities).sum()),
+        # Terrains whose episode had a non-finite step (v_x NaN, or a clamped actuation).
+        "non_finite": sum(1 for o in outcomes if o.non_finite or not o.finite),
         # Exploits show in numbers: an inverted voxel, a robot that moves on its side, jumps.
         "diagnostics": {
             t.name: {key: getattr(o, key) for key in DIAGNOSTICS}
             for t, o in zip(terrains, outcomes)
         },
+        "non_finite_steps": {t.name: o.non_finite for t, o in zip(terrains, outcomes)},
     }
     for key, pick in DIAGNOSTICS.items():
         values = [getattr(o, key) for o in outcomes]
@@ -56,10 +66,13 @@ def run(args: argparse.Namespace) -> int:
         for t, o in zip(terrains, outcomes):
             print(f"{t.name:>22}: {o.velocity:8.4f} m/s   tilt {o.max_tilt_deg:5.1f} deg,"
                   f" on its side {o.flipped_fraction:6.1%}, area >= {o.min_signed_area_ratio:.2f},"
-                  f" height {o.max_height:.2f} m")
+                  f" height {o.max_height:.2f} m"
+                  + (f", non-finite at {o.non_finite} steps" if o.non_finite else ""))
         mean = report["mean_velocity"]
         print(f"{'mean':>22}: {'NaN' if mean is None else f'{mean:8.4f}'} m/s"
               f"{'  (non-finite on some terrain)' if report['non_finite'] else ''}")
+    if report["non_finite"]:
+        warn(args.prog, f"on {report['non_finite']} of {len(terrains)} terrains {NON_FINITE}")
     return 0
 
 

@@ -9,8 +9,9 @@ from ..errors import bad
 from ..evolution.ea import GraphEA
 from ..experiments.config import RunConfig, load_toml, resolve
 from ..experiments.runner import RunDirectory, evolve
+from ..tasks.backends import check_backend
 from ..tasks.distributions import DISTRIBUTION_HELP
-from .common import add_options, finite_float
+from .common import NON_FINITE, add_options, finite_float
 
 HELP = "Evolve a graph controller with the paper's EA; writes logs, bests and checkpoints."
 
@@ -55,7 +56,7 @@ def add_evolution_options(parser: argparse.ArgumentParser) -> None:
                         help="continue from the last checkpoint (a run killed before its first "
                         "one starts again: the same run)")
     parser.add_argument("--force", action="store_true", help="overwrite an existing run")
-    add_options(parser, "quiet")
+    add_options(parser, "backend", "quiet")
 
 
 _OPTIONS = ("preset", "shape", "sensors", "generations", "population", "seed", "terrain",
@@ -65,10 +66,12 @@ _OPTIONS = ("preset", "shape", "sensors", "generations", "population", "seed", "
 
 def run(args: argparse.Namespace) -> int:
     config = configuration(args)
+    backend = check_backend(args.backend)
     # Locked before the progress bar starts, so that a refusal is the only line printed.
     with RunDirectory(args.out).locked() as run_dir:
         with progress_bar(config.generations, args.quiet) as report:
-            ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report)
+            ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report,
+                        backend=backend)
     summarise(ea, run_dir, args.quiet)
     return 0
 
@@ -145,6 +148,11 @@ class progress_bar:
             best="nan" if math.isnan(best) else f"{best:.3f}",
             size=row["best_size"],
         )
+        if row.get("non_finite_episodes"):
+            # Printed above the bar; log.csv keeps the count (non_finite_episodes) too.
+            self.bar.console.print(
+                f"warning: generation {ea.generation}: {row['non_finite_episodes']} episodes: "
+                f"{NON_FINITE}", highlight=False, soft_wrap=True)
 
     def __exit__(self, *exc) -> None:
         if self.bar is not None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from .._io import check_output_file, write_atomic
+from .._io import check_output_file, make_folder, write_atomic
 from ..errors import bad
 from ..modules.library import list_library, module_text, provenance_of
 from ..modules.module import cut
@@ -57,7 +57,7 @@ def _export(args: argparse.Namespace) -> int:
         module, donor, partition.grid_string(), str(args.genome), args.velocity
     )
     text = module_text(module, provenance)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    make_folder(out.parent)
     write_atomic(out, text)
     print(
         f"module {module.label!r}: {module.size} voxels, {len(module.nodes)} nodes, "

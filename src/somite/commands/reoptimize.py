@@ -7,6 +7,7 @@ import math
 
 from ..experiments.reoptimize import reoptimize
 from ..experiments.runner import RunDirectory
+from ..tasks.backends import check_backend
 from ..tasks.validation import check_count
 from ..tasks.velocity import mean_velocity
 from .common import add_genome, add_options, load_genome
@@ -31,12 +32,14 @@ def run(args: argparse.Namespace) -> int:
     donors = [load_genome(path) for path in args.donors]
     shape = genome.body.shape.grid_string()
     config = configuration(args, shape=shape, start=str(args.genome))
+    backend = check_backend(args.backend)
     # Locked before the progress bar starts, so that a refusal is the only line printed.
     with RunDirectory(args.out).locked() as run_dir:
         with progress_bar(config.generations, args.quiet) as report:
             ea, rows, velocities = reoptimize(config, run_dir, genome, donors,
                                               args.validation, resume=args.resume,
-                                              force=args.force, progress=report)
+                                              force=args.force, progress=report,
+                                              backend=backend)
     summarise(ea, RunDirectory(args.out), args.quiet)
     donors_mean = mean_velocity(velocities) if donors else math.nan
     if not args.quiet and donors:

@@ -7,8 +7,16 @@ import argparse
 from ..brain.controllers import parse_controller
 from ..sim.body import Body
 from ..sim.terrain import TERRAIN_HELP, parse_terrain
+from ..tasks.backends import check_backend
 from ..tasks.locomotion import simulate
-from .common import add_options, add_simulation_options, print_json, simulation_config
+from .common import (
+    NON_FINITE,
+    add_options,
+    add_simulation_options,
+    print_json,
+    simulation_config,
+    warn,
+)
 
 HELP = "Simulate one robot and print how it went (v_x over [5 s, end], distance, ...)."
 
@@ -20,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--controller", default="sine", help="zero, or sine:freq=F,amp=A,phase=P (1, 1, -1)"
     )
     add_simulation_options(parser)
-    add_options(parser, "json")
+    add_options(parser, "backend", "json")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -28,7 +36,8 @@ def run(args: argparse.Namespace) -> int:
     terrain = parse_terrain(args.terrain)
     controller = parse_controller(args.controller)
     config = simulation_config(args)
-    [outcome], _ = simulate([body], [terrain], [controller], config, seeds=args.seed)
+    [outcome], _ = simulate([body], [terrain], [controller], config, seeds=args.seed,
+                            backend=check_backend(args.backend))
     report = {
         "shape": body.shape.grid_string(),
         "terrain": terrain.name,
@@ -46,4 +55,6 @@ def run(args: argparse.Namespace) -> int:
             elif isinstance(value, list):
                 value = ", ".join(f"{v:.3f}" for v in value)
             print(f"{key:>21}: {value}")
+    if outcome.non_finite:
+        warn(args.prog, f"at {outcome.non_finite} control steps {NON_FINITE}")
     return 0 if outcome.finite else 1

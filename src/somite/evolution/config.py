@@ -114,8 +114,11 @@ class GAConfig:
                        p_add_node=0.0, p_remove_node=0.0)
 
     def partition(self, shape: Shape) -> Partition | None:
-        """The partition of ``shape`` the biased operators use (None when omega = 1)."""
+        """The partition of ``shape`` the biased operators use (None when omega = 1; a
+        partition other than the default is checked all the same, not ignored)."""
         if self.operators.omega == 1.0:
+            if self.modules != "paper":
+                Partition.parse(self.modules, shape)
             return None
         return Partition.parse(self.modules, shape)
 

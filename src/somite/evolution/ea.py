@@ -173,9 +173,10 @@ class GraphEA:
             self._asked = _Asked(genomes, origins, started)
         return list(self._asked.genomes)
 
-    def tell(self, genomes: list[Genome], fitness) -> dict:
+    def tell(self, genomes: list[Genome], fitness, non_finite: int | None = None) -> dict:
         """Give the fitness (v_x in m/s, shape (len(genomes),), NaN for a failed episode) of
-        the genomes :meth:`ask` returned; selects the next parents and returns the log row."""
+        the genomes :meth:`ask` returned; selects the next parents and returns the log row.
+        ``non_finite``: how many of their episodes had a non-finite step, for the log."""
         asked = self._asked
         if asked is None:
             raise bad("tell", "genomes", "nothing asked: call ask() first")
@@ -199,6 +200,7 @@ class GraphEA:
             "evaluations": self.evaluations,
             "elapsed_seconds": round(self.elapsed, 3),
             **statistics(self.population, fitness),
+            "non_finite_episodes": None if non_finite is None else int(non_finite),
             "validation_velocity": None,
         }
         self.log.append(row)

@@ -30,6 +30,7 @@ import numpy as np
 from ..brain.genome import Edge, Genome, Node, body_table, next_id
 from ..brain.kinds import ACTUATOR, HIDDEN, SENSOR
 from ..errors import bad
+from ..limits import MAX_OMEGA, at_most
 from ..sim.body import Body
 from ..sim.partition import Partition
 
@@ -88,6 +89,8 @@ class OperatorConfig:
             raise bad("sigma", self.sigma, "must be >= 0")
         if self.omega <= 0:
             raise bad("omega", self.omega, "must be > 0")
+        # Beyond it the operators' weight sums overflow to inf and the draws go wrong.
+        at_most("omega", self.omega, MAX_OMEGA)
 
     @property
     def probabilities(self) -> tuple[float, ...]:

@@ -90,10 +90,12 @@ class RunConfig:
     def body(self) -> Body:
         return Body.build(self.shape, self.sensors)
 
-    def task(self, body: Body | None = None) -> Locomotion:
-        """The task this run evolves on; with ``body``, genomes of another body are refused."""
+    def task(self, body: Body | None = None, backend: str = "cpu") -> Locomotion:
+        """The task this run evolves on; with ``body``, genomes of another body are refused.
+        ``backend`` (``cpu``, ``cuda``) is where its episodes run, not part of the run."""
         return Locomotion(self.terrain, self.duration, evaluations=self.evaluations,
-                          preset=self.preset, transient=self.transient, body=body)
+                          preset=self.preset, transient=self.transient, body=body,
+                          backend=backend)
 
     def validation_due(self, generation: int) -> bool:
         """Whether ``generation``'s best gets a validation velocity in the log."""

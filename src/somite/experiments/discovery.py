@@ -8,7 +8,7 @@ import csv
 import io
 from pathlib import Path
 
-from .._io import write_atomic
+from .._io import make_folder, write_atomic
 from ..brain.genome import Genome
 from ..modules.discovery import partition_around, rank_candidates, score
 
@@ -20,7 +20,7 @@ def write_discovery(out: Path, genome: Genome, name: str, b_min: int = 2, b_max:
     ranked = rank_candidates(genome, b_min, b_max)
     best = ranked[0]
     partition = partition_around(genome.body.shape, best.voxels)
-    out.mkdir(parents=True, exist_ok=True)
+    make_folder(out)
     partition.save(
         out / "partition.json",
         genome=name,

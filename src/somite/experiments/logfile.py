@@ -16,10 +16,14 @@ LOG_COLUMNS = (
     "median_size",
     "best_operator",
     "nan_count",
+    "non_finite_episodes",
     "validation_velocity",
 )
-"""One row per generation, in this order. ``validation_velocity`` is the best's mean v_x on
-the fixed validation terrains, in the rows where it was measured (empty elsewhere)."""
+"""One row per generation, in this order. ``nan_count``: offspring whose fitness is NaN (an
+episode's physics went non-finite); ``non_finite_episodes``: episodes of the generation with a
+NaN or infinite controller output or physics state (empty in rows of a caller that did not
+count them). ``validation_velocity`` is the best's mean v_x on the fixed validation terrains,
+in the rows where it was measured (empty elsewhere)."""
 
 
 def format_cell(value) -> str:

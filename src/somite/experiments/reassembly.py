@@ -12,7 +12,7 @@ import io
 import json
 from pathlib import Path
 
-from .._io import write_atomic
+from .._io import make_folder, write_atomic
 from ..errors import bad
 from ..modules.reassembly import Take, paper_takes, reassemble, receiver_for
 from ..sim.partition import Partition
@@ -61,7 +61,7 @@ def write_reassembly(out: Path, genomes, files, partitions, config, *, receiver_
                                            config)
     if draw:
         report["draw"] = "reassembled.png"
-    out.mkdir(parents=True, exist_ok=True)
+    make_folder(out)
     result.genome.save(out / "reassembled.json")
     write_atomic(out / "report.json", json.dumps(report, indent=1, allow_nan=False) + "\n")
     write_atomic(out / "report.csv", _csv(report["modules"]))

@@ -32,7 +32,14 @@ import re
 from collections.abc import Callable
 from pathlib import Path
 
-from .._io import check_output_folder, read_json, read_text, write_atomic
+from .._io import (
+    CHECK_PREFIX,
+    check_output_folder,
+    make_folder,
+    read_json,
+    read_text,
+    write_atomic,
+)
 from ..brain.genome import Genome
 from ..errors import bad
 from ..evolution.ea import GraphEA
@@ -48,6 +55,15 @@ MANIFEST_FORMAT = "somite-run-manifest"
 """``manifest.json`` lists the files a run wrote: the only ones ``--force`` deletes."""
 _TEMPORARY = re.compile(r"\.(?P<name>.+)\.\d+\.[0-9a-f]{8}\.tmp")
 """A temporary file of :func:`somite._io.write_atomic` (``.NAME.PID.RAND.tmp``)."""
+
+
+def _is_temporary(name: str) -> bool:
+    """A temporary file of a run file's write, or of an output folder's check."""
+    match = _TEMPORARY.fullmatch(name)
+    return bool(match and match["name"] in (*RUN_FILES, MANIFEST)) or name.startswith(
+        CHECK_PREFIX)
+
+
 CHECKPOINT_FORMAT = "somite-checkpoint"
 CHECKPOINT_VERSION = 3
 """Version 3 (issue 10): the checkpoint holds its run's fingerprint (:func:`run_fingerprint`).
@@ -121,10 +137,7 @@ class RunDirectory:
         manager that releases it."""
         check_output_folder(self.path)
         self._created = not self.path.exists()
-        try:
-            self.path.mkdir(parents=True, exist_ok=True)
-        except OSError as error:
-            raise bad("out", str(self.path), f"cannot create it ({error.strerror})") from None
+        make_folder(self.path)
         self.lock.acquire()
         return self
 
@@ -150,8 +163,7 @@ class RunDirectory:
         """Delete the temporary files a killed writer of run files left (call it locked:
         then no live writer owns them)."""
         for path in self.path.iterdir():
-            match = _TEMPORARY.fullmatch(path.name)
-            if match and match["name"] in (*RUN_FILES, MANIFEST) and path.is_file():
+            if _is_temporary(path.name) and path.is_file():
                 path.unlink(missing_ok=True)
 
     def manifest(self) -> list[str]:
@@ -188,8 +200,7 @@ class RunDirectory:
         if listed:
             own.add(MANIFEST)
         for path in sorted(self.path.iterdir()):
-            match = _TEMPORARY.fullmatch(path.name)
-            if match and match["name"] in (*RUN_FILES, MANIFEST):
+            if _is_temporary(path.name):
                 continue
             if path.name not in own or path.is_symlink() or not path.is_file():
                 return path.name
@@ -295,7 +306,8 @@ def step(ea: GraphEA, task, config: RunConfig) -> dict:
     """One generation: ask, evaluate with ``task`` on the EA's evaluation generator, tell, and
     (when due) the best's mean v_x on the validation terrains. Returns the log row."""
     genomes = ea.ask()
-    row = ea.tell(genomes, task.evaluate(genomes, rng=ea.rng_evaluation))
+    fitness, non_finite = task.evaluate_counted(genomes, rng=ea.rng_evaluation)
+    row = ea.tell(genomes, fitness, non_finite=int(non_finite.sum()))
     if config.validation_due(ea.generation):
         row["validation_velocity"] = task.validation_velocity(ea.best)
     return row
@@ -308,6 +320,7 @@ def evolve(
     force: bool = False,
     progress: Progress | None = None,
     start: Genome | None = None,
+    backend: str = "cpu",
 ) -> GraphEA:
     """Run (or resume) an evolution into the run directory ``out``; returns the EA at the end.
 
@@ -315,15 +328,27 @@ def evolve(
     its shape must be the configuration's. ``progress`` is called after every generation with
     the EA and the log row. The run directory is locked for the run (a second process is
     refused); a caller that needs it locked for longer passes a locked :class:`RunDirectory`.
+    ``backend`` (``cpu``, ``cuda``) is where the episodes run.
     """
     if isinstance(out, RunDirectory) and out.lock.held:
-        return _evolve(config, out, resume, force, progress, start)
+        return _evolve(config, out, resume, force, progress, start, backend)
     with RunDirectory(out.path if isinstance(out, RunDirectory) else out).locked() as run_dir:
-        return _evolve(config, run_dir, resume, force, progress, start)
+        return _evolve(config, run_dir, resume, force, progress, start, backend)
 
 
 def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
-            progress: Progress | None, start: Genome | None) -> GraphEA:
+            progress: Progress | None, start: Genome | None, backend: str) -> GraphEA:
+    ea = open_run(config, run_dir, resume, force, start)
+    task = config.task(ea.body, backend)
+    while ea.generation < config.generations:
+        finish_generation(ea, step(ea, task, config), run_dir, config, progress)
+    return ea
+
+
+def open_run(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
+             start: Genome | None) -> GraphEA:
+    """The EA of a new run (its files started) or of a resumed one (its files cut back to
+    the checkpoint); ``run_dir`` must be locked."""
     restart = False
     if resume:
         run_dir.remove_temporary()
@@ -348,20 +373,23 @@ def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
             raise bad("shape", config.shape,
                       f"the start genome's shape is {body.shape.grid_string()}")
         ea = GraphEA(body, seed=config.seed, start=start, config=config.ga)
-    task = config.task(ea.body)
+    config.task(ea.body)  # refuses a body the task cannot run before any file is touched
     if resume:
         run_dir.cut_back(ea.generation)
         if run_dir.saved_config() != config:  # --resume --generations N
             run_dir.write_config(config)
     else:
         run_dir.prepare_new(config, force, restart)
-    while ea.generation < config.generations:
-        row = step(ea, task, config)
-        run_dir.append(row, ea.best)
-        if progress is not None:
-            progress(ea, row)
-        if ea.generation % config.checkpoint_every == 0 or ea.generation in (
-            0, config.generations
-        ):
-            run_dir.save(ea, config)
     return ea
+
+
+def finish_generation(ea: GraphEA, row: dict, run_dir: RunDirectory, config: RunConfig,
+                      progress: Progress | None) -> None:
+    """Write a told generation's row and best; report it; checkpoint when due."""
+    run_dir.append(row, ea.best)
+    if progress is not None:
+        progress(ea, row)
+    if ea.generation % config.checkpoint_every == 0 or ea.generation in (
+        0, config.generations
+    ):
+        run_dir.save(ea, config)

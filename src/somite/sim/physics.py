@@ -30,19 +30,20 @@ def rest_length_factor(actuation: float, contract: float, expand: float) -> floa
     return 1.0 + (expand - 1.0) * (-a)
 
 
-@njit
-def set_rest_lengths(robot, scratch, actuation, params):
-    """``scratch.rest``: the rest length of each spring for the voxels' current actuation
-    (V,), the mean over its owners."""
-    factor = scratch.factor
-    for v in range(robot.n_voxels):
-        factor[v] = rest_length_factor(actuation[v], params.contract, params.expand)
-    owners = robot.owners
-    for s in range(robot.n_springs):
+@njit(_nrt=False)
+def set_rest_lengths(n_voxels, n_springs, owners, rest0, actuation, contract, expand, factor,
+                     rest):
+    """``rest``: the rest length of each spring for the voxels' current ``actuation`` (V,), the
+    mean over its owners; ``factor`` (V,) is work space. Arrays, not the :class:`Robot` and
+    :class:`Scratch` tuples: this function is not inlined, and passing the tuples costs 1-2% of
+    the kernel's time."""
+    for v in range(n_voxels):
+        factor[v] = rest_length_factor(actuation[v], contract, expand)
+    for s in range(n_springs):
         f = factor[owners[s, 0]]
         if owners[s, 1] >= 0:
             f = 0.5 * (f + factor[owners[s, 1]])
-        scratch.rest[s] = robot.rest0[s] * f
+        rest[s] = rest0[s] * f
 
 
 @njit(inline="always")
@@ -96,7 +97,7 @@ def integrate(robot, scratch, pos, vel, params):
         fxs[s] = f * dxs[s]
         fys[s] = f * dys[s]
     if n_short > 0:
-        enforce_min_lengths(robot, pos, vel)
+        enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel)
     for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
@@ -114,7 +115,7 @@ def integrate(robot, scratch, pos, vel, params):
         force[p, 1] = 0.0
 
 
-@njit
+@njit(_nrt=False)
 def push_apart(a, b, length, limit, dx, dy, inv_mass, pos, vel):
     """Move points a, b apart (mass-weighted) to distance ``limit``; stop their closing."""
     if length < 1e-9:
@@ -139,16 +140,14 @@ def push_apart(a, b, length, limit, dx, dy, inv_mass, pos, vel):
         vel[b, 1] -= ny * impulse * wb
 
 
-@njit
-def enforce_min_lengths(robot, pos, vel):
+@njit(_nrt=False)
+def enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel):
     """Hard limit: no side shorter than ``min_side_ratio`` of its rest length, no diagonal
     than ``min_diagonal_ratio``, so no controller can collapse a voxel (inversion is
     :func:`keep_orientation`'s). Also run after the last substep of each control step, so that
-    what is sensed and recorded always obeys the limit."""
-    ends = robot.ends
-    min_length = robot.min_length
-    inv_mass = robot.inv_mass
-    for s in range(robot.n_springs):
+    what is sensed and recorded always obeys the limit. Arrays, not the :class:`Robot` tuple,
+    as for :func:`set_rest_lengths`."""
+    for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
         dx = pos[b, 0] - pos[a, 0]
@@ -194,7 +193,7 @@ def segment_near(xs, n, x, guess) -> int:
     return i
 
 
-@njit
+@njit(_nrt=False)
 def ground_height(xs, ys, n, x, guess) -> float:
     """Height [m] of the terrain at x (``guess``: a segment index near x)."""
     i = segment_near(xs, n, x, guess)
@@ -400,12 +399,11 @@ def keep_orientation(robot, pos, vel):
     """No voxel turns inside out: each voxel's signed area stays at least ``min_area``.
 
     Length limits cannot do it (a mirrored voxel has the same side and diagonal lengths).
-    Where a voxel is smaller, its corners move along the area's gradient, weighted by inverse
-    mass, to restore ``robot.min_area``, and the corners' shrinking rate along it is removed.
+    The check is inlined; the rare correction (:func:`restore_area`) is not, which keeps the
+    substep's code small.
     """
     corners = robot.corners
     min_area = robot.min_area
-    inv_mass = robot.inv_mass
     for v in range(robot.n_voxels):
         sw, se, ne, nw = voxel_corners(corners, v)
         # Twice the signed area: the cross product of the diagonals.
@@ -413,35 +411,46 @@ def keep_orientation(robot, pos, vel):
         d1y = pos[ne, 1] - pos[sw, 1]
         d2x = pos[nw, 0] - pos[se, 0]
         d2y = pos[nw, 1] - pos[se, 1]
-        area = 0.5 * (d1x * d2y - d1y * d2x)
-        if area >= min_area:
-            continue
-        # dA/dp for each corner: half the perpendicular of the other diagonal.
-        g_sw_x, g_sw_y = -0.5 * d2y, 0.5 * d2x
-        g_ne_x, g_ne_y = 0.5 * d2y, -0.5 * d2x
-        g_se_x, g_se_y = 0.5 * d1y, -0.5 * d1x
-        g_nw_x, g_nw_y = -0.5 * d1y, 0.5 * d1x
-        w_sw = inv_mass[sw]
-        w_se = inv_mass[se]
-        w_ne = inv_mass[ne]
-        w_nw = inv_mass[nw]
-        norm = (w_sw * (g_sw_x * g_sw_x + g_sw_y * g_sw_y)
-                + w_ne * (g_ne_x * g_ne_x + g_ne_y * g_ne_y)
-                + w_se * (g_se_x * g_se_x + g_se_y * g_se_y)
-                + w_nw * (g_nw_x * g_nw_x + g_nw_y * g_nw_y))
-        if norm < 1e-12:
-            continue
-        step = (min_area - area) / norm
-        rate = (g_sw_x * vel[sw, 0] + g_sw_y * vel[sw, 1] + g_ne_x * vel[ne, 0]
-                + g_ne_y * vel[ne, 1] + g_se_x * vel[se, 0] + g_se_y * vel[se, 1]
-                + g_nw_x * vel[nw, 0] + g_nw_y * vel[nw, 1])
-        stop = max(0.0, -rate) / norm
-        for p, gx, gy, w in ((sw, g_sw_x, g_sw_y, w_sw), (se, g_se_x, g_se_y, w_se),
-                             (ne, g_ne_x, g_ne_y, w_ne), (nw, g_nw_x, g_nw_y, w_nw)):
-            pos[p, 0] += step * w * gx
-            pos[p, 1] += step * w * gy
-            vel[p, 0] += stop * w * gx
-            vel[p, 1] += stop * w * gy
+        if 0.5 * (d1x * d2y - d1y * d2x) < min_area:
+            restore_area(sw, se, ne, nw, min_area, robot.inv_mass, pos, vel)
+
+
+@njit
+def restore_area(sw, se, ne, nw, min_area, inv_mass, pos, vel):
+    """Move the corners of a voxel smaller than ``min_area`` along its area's gradient,
+    weighted by inverse mass, to restore ``min_area``, and remove the corners' shrinking
+    rate along it."""
+    d1x = pos[ne, 0] - pos[sw, 0]
+    d1y = pos[ne, 1] - pos[sw, 1]
+    d2x = pos[nw, 0] - pos[se, 0]
+    d2y = pos[nw, 1] - pos[se, 1]
+    area = 0.5 * (d1x * d2y - d1y * d2x)
+    # dA/dp for each corner: half the perpendicular of the other diagonal.
+    g_sw_x, g_sw_y = -0.5 * d2y, 0.5 * d2x
+    g_ne_x, g_ne_y = 0.5 * d2y, -0.5 * d2x
+    g_se_x, g_se_y = 0.5 * d1y, -0.5 * d1x
+    g_nw_x, g_nw_y = -0.5 * d1y, 0.5 * d1x
+    w_sw = inv_mass[sw]
+    w_se = inv_mass[se]
+    w_ne = inv_mass[ne]
+    w_nw = inv_mass[nw]
+    norm = (w_sw * (g_sw_x * g_sw_x + g_sw_y * g_sw_y)
+            + w_ne * (g_ne_x * g_ne_x + g_ne_y * g_ne_y)
+            + w_se * (g_se_x * g_se_x + g_se_y * g_se_y)
+            + w_nw * (g_nw_x * g_nw_x + g_nw_y * g_nw_y))
+    if norm < 1e-12:
+        return
+    step = (min_area - area) / norm
+    rate = (g_sw_x * vel[sw, 0] + g_sw_y * vel[sw, 1] + g_ne_x * vel[ne, 0]
+            + g_ne_y * vel[ne, 1] + g_se_x * vel[se, 0] + g_se_y * vel[se, 1]
+            + g_nw_x * vel[nw, 0] + g_nw_y * vel[nw, 1])
+    stop = max(0.0, -rate) / norm
+    for p, gx, gy, w in ((sw, g_sw_x, g_sw_y, w_sw), (se, g_se_x, g_se_y, w_se),
+                         (ne, g_ne_x, g_ne_y, w_ne), (nw, g_nw_x, g_nw_y, w_nw)):
+        pos[p, 0] += step * w * gx
+        pos[p, 1] += step * w * gy
+        vel[p, 0] += stop * w * gx
+        vel[p, 1] += stop * w * gy
 
 
 @njit(inline="always")
@@ -456,3 +465,17 @@ def substep(robot, ground, scratch, pos, vel, params):
     segment[robot.n_points] = first
     ground_contact(robot, ground, scratch, pos, vel, first, hi_x + params.radius, params)
     side_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params)
+
+
+@njit(_nrt=False)
+def advance(robot, ground, scratch, pos, vel, params, substeps):
+    """One control step of physics: ``substeps`` substeps under the rest lengths of
+    ``scratch.rest``, then the length limits, so that what is sensed obeys them.
+
+    Compiled without Numba's reference counting (``_nrt=False``: nothing here allocates), as
+    every field read from the per-robot tuples would otherwise cost an atomic increment and
+    decrement on each substep.
+    """
+    for _ in range(substeps):
+        substep(robot, ground, scratch, pos, vel, params)
+    enforce_min_lengths(robot.n_springs, robot.ends, robot.min_length, robot.inv_mass, pos, vel)

@@ -64,12 +64,19 @@ class Scratch(NamedTuple):
 @njit
 def robot_view(system, b, params) -> Robot:
     """Robot ``b`` of ``system`` with the limits of ``params``."""
+    n_springs = system.n_springs[b]
+    return robot_in(system, b, params, np.ones(n_springs), np.empty(n_springs),
+                    np.empty(system.n_points[b]))
+
+
+@njit
+def robot_in(system, b, params, strength, min_length, inv_mass) -> Robot:
+    """:func:`robot_view` with its three derived arrays (S,), (S,), (P,) supplied and filled:
+    a GPU thread cannot allocate them."""
     n_points = system.n_points[b]
     n_springs = system.n_springs[b]
     rest0 = system.spring_rest[b, :n_springs]
     owners = system.spring_owners[b, :n_springs]
-    strength = np.ones(n_springs)
-    min_length = np.empty(n_springs)
     for s in range(n_springs):
         if system.spring_diagonal[b, s]:
             strength[s] = params.diagonal
@@ -78,9 +85,11 @@ def robot_view(system, b, params) -> Robot:
             strength[s] = 1.0 if owners[s, 1] < 0 else 2.0
             min_length[s] = rest0[s] * params.min_side
     mass = system.mass[b, :n_points]
+    for p in range(n_points):
+        inv_mass[p] = 1.0 / mass[p]
     return Robot(
         n_points, n_springs, system.n_voxels[b], system.n_boundary[b],
-        system.spring_ends[b, :n_springs], owners, strength, rest0, min_length, mass, 1.0 / mass,
+        system.spring_ends[b, :n_springs], owners, strength, rest0, min_length, mass, inv_mass,
         system.voxel_corners[b], system.boundary[b],
         params.min_area * VOXEL_SIDE * VOXEL_SIDE,
     )
@@ -96,8 +105,26 @@ def ground_view(system, b) -> Ground:
 @njit
 def new_scratch(robot) -> Scratch:
     s = robot.n_springs
-    return Scratch(
-        robot.rest0.copy(), np.ones(robot.n_voxels), np.zeros((robot.n_points, 2)),
-        np.zeros(s), np.zeros(s), np.zeros(s), np.zeros(s), np.zeros(s), np.zeros(s),
-        np.zeros(robot.n_points, dtype=np.bool_), np.zeros(robot.n_points + 1, dtype=np.int64),
+    return scratch_in(
+        robot, np.empty(s), np.empty(robot.n_voxels), np.empty((robot.n_points, 2)),
+        np.empty(s), np.empty(s), np.empty(s), np.empty(s), np.empty(s), np.empty(s),
+        np.empty(robot.n_points, dtype=np.bool_), np.empty(robot.n_points + 1, dtype=np.int64),
     )
+
+
+@njit
+def scratch_in(robot, rest, factor, force, dx, dy, dvx, dvy, fx, fy, contact,
+               segment) -> Scratch:
+    """A :class:`Scratch` over supplied arrays (sizes as its fields'), set to the start of an
+    episode: rest lengths at zero actuation, everything else zero."""
+    for s in range(robot.n_springs):
+        rest[s] = robot.rest0[s]
+        dx[s] = dy[s] = dvx[s] = dvy[s] = fx[s] = fy[s] = 0.0
+    for v in range(robot.n_voxels):
+        factor[v] = 1.0
+    for p in range(robot.n_points):
+        force[p, 0] = force[p, 1] = 0.0
+        contact[p] = False
+        segment[p] = 0
+    segment[robot.n_points] = 0
+    return Scratch(rest, factor, force, dx, dy, dvx, dvy, fx, fy, contact, segment)

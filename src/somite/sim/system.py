@@ -165,10 +165,14 @@ def compile_system(
             unique[id(terrain)] = len(terrain_list)
             terrain_list.append(terrain)
         terrain_of[b] = unique[id(terrain)]
-    cache: dict[int, Geometry] = {}
-    geoms = [cache.setdefault(id(body), geometry(body)) for body in bodies]
+    cache: dict[int, tuple[Geometry, tuple]] = {}  # a batch holds few distinct bodies
+    for body in bodies:
+        if id(body) not in cache:
+            cache[id(body)] = geometry(body), _readings(body)
+    geoms = [cache[id(body)][0] for body in bodies]
     positions = [place(g.points, g.corners, t, start_gap) for g, t in zip(geoms, terrains)]
-    readings = [_readings(body) for body in bodies]
+    readings = [cache[id(body)][1] for body in bodies]
+    normals = [_normals(t) for t in terrain_list]
     return System(
         n_points=np.array([len(g.points) for g in geoms], dtype=np.int32),
         mass=pad([g.mass for g in geoms], (), np.float64, 1.0),
@@ -190,8 +194,8 @@ def compile_system(
         terrain_n=np.array([len(t.xs) for t in terrain_list], dtype=np.int32),
         terrain_x=pad([t.xs for t in terrain_list], (), np.float64),
         terrain_y=pad([t.ys for t in terrain_list], (), np.float64),
-        terrain_nx=pad([_normals(t)[0] for t in terrain_list], (), np.float64),
-        terrain_ny=pad([_normals(t)[1] for t in terrain_list], (), np.float64),
+        terrain_nx=pad([nx for nx, _ in normals], (), np.float64),
+        terrain_ny=pad([ny for _, ny in normals], (), np.float64),
     )
 
 

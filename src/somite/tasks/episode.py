@@ -20,11 +20,10 @@ from ..brain.kernels import graph_step
 from ..brain.openloop import sine_actuation, table_actuation
 from ..sim.config import CONTROL_HZ
 from ..sim.physics import (
-    enforce_min_lengths,
+    advance,
     ground_height,
     segment_near,
     set_rest_lengths,
-    substep,
 )
 from ..sim.robot import ground_view, new_scratch, robot_view
 from ..sim.sensors import angle_mode, lidar_rays, sense, update_histories, voxel_state
@@ -66,6 +65,7 @@ class Trace(NamedTuple):
     max_speed: np.ndarray  # (B,) largest corner speed seen [m/s]
     min_area: np.ndarray  # (B,) smallest signed voxel area ratio seen (< 0: inverted)
     status: np.ndarray  # (B,) int32 STATUS_*
+    non_finite: np.ndarray  # (B,) int32 control steps with a non-finite actuation or state
     diagnostics: np.ndarray  # (B, N_DIAGNOSTICS) D_*, measured after SETTLE_STEPS
     pos: np.ndarray  # (B or 0, n_steps + 1, P, 2) corner positions [m]
     actuation: np.ndarray  # (B or 0, n_steps + 1, V)
@@ -83,6 +83,7 @@ def new_trace(n_robots: int, n_steps: int, system, record: bool) -> Trace:
         max_speed=np.zeros(n_robots),
         min_area=np.full(n_robots, np.inf),
         status=np.zeros(n_robots, dtype=np.int32),
+        non_finite=np.zeros(n_robots, dtype=np.int32),
         diagnostics=np.zeros((n_robots, N_DIAGNOSTICS)),
         pos=np.zeros((rows, n_steps + 1, n_points, 2)),
         actuation=np.zeros((rows, n_steps + 1, n_voxels)),
@@ -91,7 +92,7 @@ def new_trace(n_robots: int, n_steps: int, system, record: bool) -> Trace:
     )
 
 
-@njit
+@njit(_nrt=False)
 def _centre_of_mass(n_points, mass, pos):
     total = 0.0
     x = 0.0
@@ -103,7 +104,7 @@ def _centre_of_mass(n_points, mass, pos):
     return x / total, y / total
 
 
-@njit
+@njit(_nrt=False)
 def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
     """|angle| [deg] of the line from the leftmost column's centre to the rightmost's."""
     if x_lo == x_hi:
@@ -124,7 +125,7 @@ def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
     return abs(math.degrees(math.atan2(dy, dx)))
 
 
-@njit
+@njit(_nrt=False)
 def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, segment, params,
              out):
     """Update the episode's diagnostics ``out`` (D_*) with control step ``k``; ``segment``
@@ -153,7 +154,7 @@ def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, segme
     out[D_MAX_COM_SPEED] = max(out[D_MAX_COM_SPEED], speed)
 
 
-@njit
+@njit(_nrt=False)
 def _record(b, step, n_points, n_voxels, n_readings, pos, contact, actuation, readings, trace):
     for p in range(n_points):
         trace.pos[b, step, p, 0] = pos[p, 0]
@@ -165,7 +166,7 @@ def _record(b, step, n_points, n_voxels, n_readings, pos, contact, actuation, re
         trace.readings[b, step, r] = readings[r]
 
 
-@njit
+@njit(_nrt=False)
 def _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation, params):
     kind = ctrl.kind[b]
     if kind == SINE:
@@ -186,27 +187,48 @@ def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
     """Simulate robot ``b`` of the batch for ``n_steps`` control steps into ``trace``
     (``noise``: see :func:`~somite.sim.sensors.noise_table`)."""
     robot = robot_view(system, b, params)
-    ground = ground_view(system, b)
-    scratch = new_scratch(robot)
+    n_points = robot.n_points
+    n_voxels = robot.n_voxels
+    n_nodes = ctrl.n_nodes[b]
+    episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground_view(system, b),
+            new_scratch(robot), np.empty((n_points, 2)), np.empty((n_points, 2)),
+            np.empty((n_voxels, 6)), np.empty((n_voxels, int(params.touch_window))),
+            np.empty((n_voxels, int(params.velocity_window), 2)),
+            np.empty(system.n_readings[b]), np.empty(n_voxels), np.empty(n_nodes),
+            np.empty(n_nodes), lidar_rays(params))
+
+
+@njit(inline="always")
+def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground, scratch, pos,
+            vel, voxels, touch_hist, vel_hist, readings, actuation, h_prev, h_next, rays):
+    """:func:`run_robot` over supplied work arrays, which it initialises (a GPU thread cannot
+    allocate): ``pos``, ``vel`` (P, 2), ``voxels`` (V, 6), ``touch_hist`` (V, touch window),
+    ``vel_hist`` (V, velocity window, 2), ``readings`` (R,), ``actuation`` (V,), ``h_prev``,
+    ``h_next`` (N,), ``rays`` :func:`~somite.sim.sensors.lidar_rays`; ``scratch`` from
+    :func:`~somite.sim.robot.scratch_in`."""
     n_points = robot.n_points
     n_voxels = robot.n_voxels
     n_readings = system.n_readings[b]
     mass = robot.mass
     voxel_x = system.voxel_x[b]
     recording = trace.pos.shape[0] > 0
-
-    pos = system.initial_pos[b, :n_points].copy()
-    vel = np.zeros((n_points, 2))
-    voxels = np.zeros((n_voxels, 6))
-    touch_hist = np.zeros((n_voxels, int(params.touch_window)))
-    vel_hist = np.zeros((n_voxels, int(params.velocity_window), 2))
-    readings = np.zeros(n_readings)
-    actuation = np.zeros(n_voxels)
-    n_nodes = ctrl.n_nodes[b]
-    h_prev = np.zeros(n_nodes)
-    h_next = np.zeros(n_nodes)
+    for p in range(n_points):
+        pos[p, 0] = system.initial_pos[b, p, 0]
+        pos[p, 1] = system.initial_pos[b, p, 1]
+        vel[p, 0] = vel[p, 1] = 0.0
+    for v in range(n_voxels):
+        actuation[v] = 0.0
+        for j in range(6):
+            voxels[v, j] = 0.0
+        for j in range(touch_hist.shape[1]):
+            touch_hist[v, j] = 0.0
+        for j in range(vel_hist.shape[1]):
+            vel_hist[v, j, 0] = vel_hist[v, j, 1] = 0.0
+    for r in range(n_readings):
+        readings[r] = 0.0
+    for n in range(h_prev.shape[0]):
+        h_prev[n] = h_next[n] = 0.0
     substeps = int(params.substeps)
-    rays = lidar_rays(params)
     angle = angle_mode(params)
 
     cx, cy = _centre_of_mass(n_points, mass, pos)
@@ -223,16 +245,23 @@ def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
         x_hi = max(x_hi, voxel_x[v])
     diagnostics = trace.diagnostics[b]
     diagnostics[D_MAX_GAP] = -np.inf
+    non_finite = 0
     for k in range(1, n_steps + 1):
-        set_rest_lengths(robot, scratch, actuation, params)
-        for _ in range(substeps):
-            substep(robot, ground, scratch, pos, vel, params)
-        enforce_min_lengths(robot, pos, vel)
+        set_rest_lengths(n_voxels, robot.n_springs, robot.owners, robot.rest0, actuation,
+                         params.contract, params.expand, scratch.factor, scratch.rest)
+        advance(robot, ground, scratch, pos, vel, params, substeps)
         cx, cy = _centre_of_mass(n_points, mass, pos)
+        # The state's check, once per control step: any NaN or inf among the positions
+        # reaches the centre of mass, any among the velocities their sum (max() would keep
+        # the old value over a NaN).
+        squares = 0.0
         for p in range(n_points):
-            fastest = max(fastest, vel[p, 0] * vel[p, 0] + vel[p, 1] * vel[p, 1])
-        if not (math.isfinite(cx) and math.isfinite(cy) and math.isfinite(fastest)):
+            square = vel[p, 0] * vel[p, 0] + vel[p, 1] * vel[p, 1]
+            squares += square
+            fastest = max(fastest, square)
+        if not (math.isfinite(cx) and math.isfinite(cy) and math.isfinite(squares)):
             trace.status[b] = STATUS_NONFINITE
+            non_finite += 1
             break
         trace.com[b, k, 0] = cx
         trace.com[b, k, 1] = cy
@@ -249,9 +278,15 @@ def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
               touch_hist, vel_hist, rays, ground.xs, ground.ys, ground.n, near, params, noise,
               readings)
         _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation, params)
+        # The physics clamps actuation to [-1, 1] (a NaN acts as -1): counted, not hidden.
+        for v in range(n_voxels):
+            if not math.isfinite(actuation[v]):
+                non_finite += 1
+                break
         if recording:
             _record(b, k, n_points, n_voxels, n_readings, pos, scratch.contact, actuation,
                     readings, trace)
+    trace.non_finite[b] = non_finite
     trace.max_speed[b] = math.sqrt(fastest)
     trace.min_area[b] = smallest
 

@@ -20,6 +20,7 @@ from ..sim.config import CONTROL_HZ, SimConfig, pack_params
 from ..sim.sensors import noise_table
 from ..sim.system import System, compile_system, pad
 from ..sim.terrain import Terrain
+from .backends import check_backend
 from .episode import (
     D_FLIPPED,
     D_MAX_GAP,
@@ -57,6 +58,11 @@ class Outcome:
     """Share of the scored steps (after ``transient``) with that angle over 90 degrees."""
     max_height: float = math.nan
     """Highest that the robot's lowest corner got above the ground, after the first 2 s [m]."""
+    non_finite: int = 0
+    """Control steps at which a controller output (actuation) or the physics state (corner
+    positions, velocities) held a NaN or an infinity. The episode stops at the first
+    non-finite state (``finite`` False, v_x NaN); a non-finite actuation is clamped to [-1, 1]
+    by the physics (NaN as -1) and the episode goes on, so its v_x is not the controller's."""
 
     def to_dict(self) -> dict:
         return {
@@ -69,6 +75,7 @@ class Outcome:
             "max_tilt_deg": self.max_tilt_deg,
             "flipped_fraction": self.flipped_fraction,
             "max_height": self.max_height,
+            "non_finite": self.non_finite,
         }
 
 
@@ -149,6 +156,7 @@ def outcomes(trace: Trace, config: SimConfig) -> list[Outcome]:
                 max_tilt_deg=float(d[D_MAX_TILT]) if observed else math.nan,
                 flipped_fraction=float(d[D_FLIPPED]) / (end - start) if observed else math.nan,
                 max_height=float(d[D_MAX_GAP]) if observed else math.nan,
+                non_finite=int(trace.non_finite[b]),
             )
         )
     return result
@@ -160,10 +168,21 @@ def run(
     config: SimConfig,
     seeds: Sequence[int],
     record: bool = False,
+    backend: str = "cpu",
 ) -> Trace:
-    """Run a compiled batch; the lowest-level entry point (no checks, no Python objects)."""
+    """Run a compiled batch; the lowest-level entry point (no checks, no Python objects).
+    ``backend``: ``cpu`` or ``cuda`` (:mod:`somite.tasks.backends`)."""
     seeds_arr = np.asarray(seeds, dtype=np.uint64)
     trace = new_trace(len(seeds_arr), config.n_steps, system, record)
+    if backend != "cpu":
+        check_backend(backend)
+        if record:
+            raise bad("backend", backend, "cannot record an episode: use cpu")
+        from .cuda_batch import run_batch as run_on_gpu
+
+        run_on_gpu(system, controllers, pack_params(config), noise_table(config), seeds_arr,
+                   config.n_steps, trace)
+        return trace
     # Robots take unequal times (graph sizes, contacts): hand them out one at a time.
     previous = numba.set_parallel_chunksize(1)
     try:
@@ -181,12 +200,13 @@ def simulate(
     config: SimConfig | None = None,
     seeds: Sequence[int] | int = 0,
     record: bool = False,
+    backend: str = "cpu",
 ) -> tuple[list[Outcome], Trace]:
     """Simulate robot b = (bodies[b], terrains[b], controllers[b]) for every b, in one batch.
 
     ``seeds`` seeds each robot's sensor noise (one int seeds them all alike; unused with
     ``noise_stream = "java-random-0"``). With ``record`` the trace also holds every step's
-    corner positions, actuation, readings and contacts.
+    corner positions, actuation, readings and contacts (``cpu`` backend only).
     """
     config = config or SimConfig()
     n = len(bodies)
@@ -199,5 +219,5 @@ def simulate(
             raise bad("seed", seed, "must be in [0, 2**64)")
     system = compile_system(bodies, terrains, config.start_gap)
     ctrl = compile_controllers(controllers, [b.shape.n_voxels for b in bodies])
-    trace = run(system, ctrl, config, seeds, record)
+    trace = run(system, ctrl, config, seeds, record, backend)
     return outcomes(trace, config), trace

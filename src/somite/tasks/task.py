@@ -10,6 +10,7 @@ can hand it a generator of its own that variation never touches.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -20,12 +21,23 @@ from ..sim.body import Body
 from ..sim.config import SimConfig
 from ..sim.config import preset as sim_preset
 from ..sim.terrain import Terrain, parse_terrain
+from .backends import check_backend
 from .distributions import parse_distribution
 from .locomotion import Controller, Outcome
 from .locomotion import simulate as simulate_batch
 from .validation import evaluate as evaluate_on
 from .validation import validation_terrains
 from .velocity import mean_velocity
+
+
+class Episodes(NamedTuple):
+    """Episodes to run: robot i is (bodies[i], terrains[i], controllers[i]) with noise seed
+    seeds[i]."""
+
+    bodies: list[Body]
+    terrains: list[Terrain]
+    controllers: list[Controller]
+    seeds: np.ndarray
 
 
 class Locomotion:
@@ -54,6 +66,9 @@ class Locomotion:
         When given, every genome evaluated must drive this body (a one-line error otherwise).
     sim : SimConfig, optional
         The full episode settings; replaces ``duration``, ``preset`` and ``transient``.
+    backend : str
+        Where episodes run: ``cpu`` (default) or ``cuda`` (an NVIDIA GPU, with
+        ``pip install somite[cuda]``). Both run the same code; velocities agree to ~1e-9.
     """
 
     def __init__(
@@ -67,7 +82,9 @@ class Locomotion:
         validation: int = 10,
         body: Body | None = None,
         sim: SimConfig | None = None,
+        backend: str = "cpu",
     ) -> None:
+        self.backend = check_backend(backend)
         self.terrains = parse_distribution(terrain)
         self.sim = sim or sim_preset(preset, duration=float(duration), transient=float(transient))
         for name, value in (("evaluations", evaluations), ("validation", validation)):
@@ -101,27 +118,51 @@ class Locomotion:
         its own sensor-noise seed per episode, all from ``rng``: first the G*K terrains
         (genome by genome), then the G*K noise seeds. One batch for all of them.
         """
+        return self.evaluate_counted(genomes, rng)[0]
+
+    def evaluate_counted(self, genomes: Sequence[Genome],
+                         rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`evaluate`'s fitness (the same draws), and for each genome how many of its
+        episodes had a non-finite step (:attr:`~somite.tasks.locomotion.Outcome.non_finite`)."""
+        episodes = self.episodes(genomes, rng)
+        if not episodes.seeds.size:
+            return np.zeros(0), np.zeros(0, dtype=np.int64)
+        outcomes, _ = simulate_batch(episodes.bodies, episodes.terrains, episodes.controllers,
+                                     self.sim, episodes.seeds, backend=self.backend)
+        return self.fitness([o.velocity for o in outcomes]), self.non_finite(outcomes)
+
+    def episodes(self, genomes: Sequence[Genome], rng: np.random.Generator) -> Episodes:
+        """The episodes :meth:`evaluate` runs for ``genomes``, drawn from ``rng`` as it draws
+        them; several tasks' episodes of the same ``sim`` can run in one batch."""
         genomes = self._check(genomes)
         n = len(genomes) * self.evaluations
         if n == 0:
-            return np.zeros(0)
+            return Episodes([], [], [], np.zeros(0, dtype=np.int64))
         terrains = self.terrains.sample(rng, n)
         noise_seeds = rng.integers(0, 2**32, n)
         arrays = [compile_genome(g) for g in genomes]
         repeat = self.evaluations
-        outcomes, _ = simulate_batch(
-            [g.body for g in genomes for _ in range(repeat)], terrains,
-            [a for a in arrays for _ in range(repeat)], self.sim, noise_seeds,
-        )
-        velocities = np.array([o.velocity for o in outcomes]).reshape(len(genomes), repeat)
-        return mean_velocity(velocities, axis=1)
+        return Episodes([g.body for g in genomes for _ in range(repeat)], terrains,
+                        [a for a in arrays for _ in range(repeat)], noise_seeds)
+
+    def fitness(self, velocities: Sequence[float]) -> np.ndarray:
+        """Fitness (G,) from the v_x of :meth:`episodes`' episodes, in their order."""
+        return mean_velocity(np.asarray(velocities, dtype=np.float64).reshape(
+            -1, self.evaluations), axis=1)
+
+    def non_finite(self, outcomes: Sequence[Outcome]) -> np.ndarray:
+        """For each genome (G,), how many of :meth:`episodes`' episodes, given in their order,
+        had a non-finite step."""
+        flagged = np.array([o.non_finite > 0 for o in outcomes], dtype=np.int64)
+        return flagged.reshape(-1, self.evaluations).sum(axis=1)
 
     def validate(self, genomes: Genome | Sequence[Genome]) -> np.ndarray:
         """v_x [m/s] on each fixed validation terrain: shape (T,) for one genome, (G, T) for a
         list. No randomness: noise seed 0, so the same genome always gets the same numbers."""
         single = isinstance(genomes, Genome)
         checked = self._check([genomes] if single else genomes)
-        velocities = evaluate_on(checked, self.validation_terrains, self.sim)
+        velocities = evaluate_on(checked, self.validation_terrains, self.sim,
+                                 backend=self.backend)
         return velocities[0] if single else velocities
 
     def validation_velocity(self, genome: Genome) -> float:
@@ -138,6 +179,7 @@ def simulate(
     preset: str = "paper",
     seed: int = 0,
     sim: SimConfig | None = None,
+    backend: str = "cpu",
 ) -> Outcome:
     """One robot, one episode: its :class:`~somite.tasks.locomotion.Outcome` (v_x in m/s over
     [5 s, duration], distance in m, final centre of mass in m, ...).
@@ -145,7 +187,8 @@ def simulate(
     ``robot`` is a :class:`~somite.brain.genome.Genome` (which carries its body) or a
     controller (``Zero()``, ``Sine(...)``, ...) with ``body``. ``terrain`` is a name
     (``flat``, ``hilly-1-10-3``, ...) or a :class:`~somite.sim.terrain.Terrain`; ``seed`` seeds
-    the sensor noise. For batches, see :func:`somite.tasks.locomotion.simulate`.
+    the sensor noise; ``backend`` is ``cpu`` or ``cuda``. For batches, see
+    :func:`somite.tasks.locomotion.simulate`.
     """
     if isinstance(robot, Genome):
         if body is not None and body != robot.body:
@@ -157,7 +200,8 @@ def simulate(
         controller = robot
     world = terrain if isinstance(terrain, Terrain) else parse_terrain(terrain)
     config = sim or sim_preset(preset, duration=float(duration))
-    [outcome], _ = simulate_batch([body], [world], [controller], config, seeds=seed)
+    [outcome], _ = simulate_batch([body], [world], [controller], config, seeds=seed,
+                                  backend=check_backend(backend))
     return outcome
 
 

@@ -40,12 +40,13 @@ def evaluate(
     terrains: Sequence[Terrain],
     config: SimConfig | None = None,
     seed: int = 0,
+    backend: str = "cpu",
 ) -> np.ndarray:
     """v_x [m/s] of every genome on every terrain, shape (G, T), in one batch.
 
     NaN marks an episode that went non-finite.
     """
-    outcomes = evaluate_outcomes(genomes, terrains, config, seed)
+    outcomes = evaluate_outcomes(genomes, terrains, config, seed, backend)
     velocities = np.array([o.velocity for row in outcomes for o in row], dtype=np.float64)
     return velocities.reshape(len(genomes), len(terrains))
 
@@ -55,6 +56,7 @@ def evaluate_outcomes(
     terrains: Sequence[Terrain],
     config: SimConfig | None = None,
     seed: int = 0,
+    backend: str = "cpu",
 ) -> list[list[Outcome]]:
     """The :class:`Outcome` of every genome (rows) on every terrain (columns), in one batch."""
     config = config or SimConfig()
@@ -65,6 +67,6 @@ def evaluate_outcomes(
             bodies.append(genome.body)
             worlds.append(terrain)
             controllers.append(arrays)
-    outcomes, _ = simulate(bodies, worlds, controllers, config, seeds=seed)
+    outcomes, _ = simulate(bodies, worlds, controllers, config, seeds=seed, backend=backend)
     n = len(terrains)
     return [outcomes[g * n : (g + 1) * n] for g in range(len(genomes))]

@@ -167,6 +167,14 @@ def plot_boxes(
     """Boxplots of the last generation's ``column`` per group, every run as a dot, and the
     pairwise Mann-Whitney p-values on bars above; returns the tests drawn."""
     samples = {name: final_values(runs, column) for name, runs in groups.items()}
+    return plot_samples(axes, samples, "best $v_x$ at the last generation [m/s]")
+
+
+def plot_samples(axes, samples: dict[str, np.ndarray], ylabel: str) -> list[PairTest]:
+    """Boxplots of one sample per group, every value as a dot, and the pairwise two-sided
+    Mann-Whitney p-values on bars above; returns the tests drawn."""
+    samples = {name: np.asarray(values, dtype=np.float64) for name, values in samples.items()}
+    samples = {name: values[np.isfinite(values)] for name, values in samples.items()}
     positions = np.arange(1, len(samples) + 1)
     data = [values if len(values) else [np.nan] for values in samples.values()]
     parts = axes.boxplot(data, positions=positions, widths=0.55, tick_labels=list(samples),
@@ -180,7 +188,7 @@ def plot_boxes(
         median.set(color="black", lw=1.5)
     tests = pairwise_mann_whitney(samples)
     _p_value_bars(axes, tests, list(samples), samples)
-    axes.set_ylabel("best $v_x$ at the last generation [m/s]")
+    axes.set_ylabel(ylabel)
     axes.ticklabel_format(axis="y", useOffset=False)
     axes.tick_params(axis="x", labelrotation=20 if len(samples) > 2 else 0, labelsize=8)
     axes.grid(axis="y", alpha=0.3)
@@ -209,5 +217,5 @@ def _p_text(p: float) -> str:
     return "p < 0.001" if p < 0.001 else f"p = {p:.3g}"
 
 
-__all__ = ["PLOT_FORMATS", "curve", "plot_boxes", "plot_curves", "plot_runs", "plot_validation",
-           "stats_path"]
+__all__ = ["COLOURS", "PLOT_FORMATS", "curve", "plot_boxes", "plot_curves", "plot_runs",
+           "plot_samples", "plot_validation", "stats_path"]

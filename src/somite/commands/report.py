@@ -1,0 +1,36 @@
+"""``somite report``: a campaign directory's Markdown report, figures and numbers."""
+
+from __future__ import annotations
+
+import argparse
+
+from .common import add_options
+
+HELP = ("Report a campaign directory: the paper's Table 1 and Figures 3, 5, 7-12 beside the "
+        "paper's numbers, validation re-runs, time-lapses (index.md, report.json, figures/).")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("campaign", help="campaign directory (written by somite campaign run)")
+    parser.add_argument("--out", required=True, help="report folder")
+    add_options(parser, "validation", notes={
+        "validation": "every final best is re-run on them (cached in the report folder)"})
+    parser.add_argument("--no-timelapse", action="store_true",
+                        help="draw no time-lapse strips")
+    add_options(parser, "quiet")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..report.build import build_report
+
+    report = build_report(args.campaign, args.out, args.validation,
+                          timelapse=not args.no_timelapse)
+    if not args.quiet:
+        status = report["status"]["experiments"]
+        done = sum(s["done"] for s in status.values())
+        total = sum(s["tasks"] for s in status.values())
+        cache = report["cache"]
+        print(f"wrote {args.out}/index.md and report.json: {done} of {total} tasks finished; "
+              f"{cache['genomes_simulated']} bests re-run on the validation terrains, "
+              f"{cache['strips_drawn']} time-lapses drawn (the rest from the cache)")
+    return 0

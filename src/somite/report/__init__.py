@@ -1,0 +1,1 @@
+"""``somite report``: a campaign directory's results beside the paper's (see :mod:`.build`)."""

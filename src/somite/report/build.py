@@ -1,0 +1,175 @@
+"""``somite report``: a campaign directory in, a report folder out.
+
+REPORT holds ``index.md`` (and ``index.html``), ``report.json`` (every number of the report),
+``figures/`` (PNG and SVG, time-lapse strips as PNG) and ``cache/`` (the validation re-runs and
+the strips already drawn, so that a second report on the same campaign is quick). Every file is
+written atomically; a task that is not finished, or cannot be read, is listed as missing.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from .._io import check_output_folder, write_atomic
+from ..analysis.stats import describe, to_json
+from ..tasks.validation import check_count
+from ..viz import report_figures as figures
+from . import evolution, paper, reassembly
+from .campaign import read_campaign
+from .discovery import discovery_rows, discovery_summary
+from .load import load, shape_name
+from .markdown import render_html, render_markdown
+from .rerun import rerun_finals
+from .timelapse import draw_strips
+
+FORMAT = "somite-report"
+VERSION = 1
+
+
+def build_report(campaign_dir: str | Path, out: str | Path, validation: int = 10,
+                 timelapse: bool = True) -> dict:
+    """Write the report of ``campaign_dir`` into ``out``; returns report.json's data."""
+    check_count(validation)
+    out = check_output_folder(out)
+    campaign = read_campaign(campaign_dir)
+    loaded = load(campaign)
+    folder = out / "figures"
+    folder.mkdir(parents=True, exist_ok=True)
+    reruns, simulated = rerun_finals(loaded.runs, loaded.bests, validation,
+                                     out / "cache" / "validation.json")
+    rows = _validation_rows(campaign, loaded, reruns)
+    report = {
+        "format": FORMAT, "version": VERSION,
+        "campaign": {"name": campaign.name, "source": campaign.source,
+                     "directory": str(campaign.root), "experiments": campaign.experiments},
+        "status": {"experiments": campaign.status(loaded.broken), "unreadable": loaded.broken},
+        "table1": evolution.table1(campaign, loaded, reruns),
+    }
+    report.update(_evolution_figures(campaign, loaded, reruns, folder))
+    report.update(_reassembly_figures(campaign, loaded, folder))
+    report["discovery"] = _discovery(campaign, loaded, folder)
+    report["validation"] = _validation(rows, validation, folder)
+    strips, drawn = draw_strips(rows, loaded, folder, out / "cache" / "timelapse.json") \
+        if timelapse else ([], 0)
+    report["timelapse"] = strips
+    report["cache"] = {"genomes_simulated": simulated, "strips_drawn": drawn}
+    report["paper"] = paper.everything()
+    write_atomic(out / "report.json", to_json(report))
+    text = render_markdown(report)
+    write_atomic(out / "index.md", text)
+    html = render_html(text, campaign.name)
+    if html is not None:
+        write_atomic(out / "index.html", html)
+    return report
+
+
+def _validation_rows(campaign, loaded, reruns: dict) -> list[dict]:
+    rows = []
+    for task in campaign.tasks:
+        if task.id in reruns:
+            result = reruns[task.id]
+            rows.append({"task": task.id, "experiment": task.experiment, "kind": task.kind,
+                         "shape": shape_name(loaded.runs[task.id].config["shape"]),
+                         "logged": result["logged"], "validation": result["mean"],
+                         "logged_validation": result["logged_validation"],
+                         "terrains": result["terrains"], "velocities": result["velocities"]})
+    # Grouped by experiment (the campaign's order), then shape (biped, worm, others).
+    experiments = list(dict.fromkeys(r["experiment"] for r in rows))
+    shapes = evolution.shape_order(r["shape"] for r in rows)
+    return sorted(rows, key=lambda r: (experiments.index(r["experiment"]),
+                                       shapes.index(r["shape"])))
+
+
+def _evolution_figures(campaign, loaded, reruns: dict, folder: Path) -> dict:
+    out = {}
+    for key, members, title in (
+        ("figure3", evolution.FIGURE3, "Figure 3: best v_x and |G| (rq1)"),
+        ("figure10", evolution.FIGURE10, "Figure 10: best v_x and |G| by omega"),
+    ):
+        found = evolution.groups(campaign, loaded, members)
+        out[key] = {"curves": evolution.curves(found),
+                    "files": _save(figures.curves_figure, found, folder, key, title)}
+    for key, members, title in (
+        ("figure5", evolution.FIGURE5, "Figure 5: final best v_x, with and without topology"),
+        ("figure11", evolution.FIGURE10, "Figure 11: final best v_x by omega"),
+    ):
+        found = evolution.groups(campaign, loaded, members)
+        compared = evolution.final_comparison(found, reruns)
+        files = {}
+        for which, label in (("logged", "logged best $v_x$ [m/s]"),
+                             ("validation", "$v_x$ on the validation terrains [m/s]")):
+            panels = {shape: {g: d["values"] for g, d in c[which]["groups"].items()}
+                      for shape, c in compared.items()}
+            files[which] = _save(figures.boxes_figure, panels, folder, f"{key}-{which}",
+                                 label, f"{title} ({which})")
+        out[key] = {"comparison": compared, "files": files}
+    out["figure5"]["paper"] = paper.ABLATION.to_dict()
+    faster, slower = evolution.FIGURE5.values()
+    out["figure5"]["one_sided"] = {
+        shape: {which: evolution.one_sided(c[which], faster, slower)
+                for which in ("logged", "validation")}
+        for shape, c in out["figure5"]["comparison"].items()}
+    out["figure11"]["paper"] = paper.VELOCITY_BY_OMEGA.to_dict()
+    return out
+
+
+def _reassembly_figures(campaign, loaded, folder: Path) -> dict:
+    reassemblies = reassembly.reassembly_rows(campaign, loaded)
+    rows = reassembly.reoptimization_rows(campaign, loaded)
+    out = {"reassemblies": reassemblies, "reoptimizations": rows}
+    for key, label, title, reported in (
+        ("figure7", reassembly.figure7_label, "Figure 7: median rho during re-optimisation",
+         {k: r.to_dict() for k, r in paper.RHO_HOMOGENEOUS.items()}),
+        ("figure8", reassembly.figure8_label, "Figure 8: median rho by omega (homogeneous)",
+         paper.RHO_BY_OMEGA.to_dict()),
+        ("rq3_reassembly", reassembly.discovered_label,
+         "Beyond the paper: rho along the discovered modules", None),
+    ):
+        found = reassembly.rho_curves(rows, loaded, label)
+        out[key] = {"curves": found, "end": reassembly.end_comparison(found),
+                    "files": _save(figures.rho_figure, found, folder, key, title),
+                    "paper": reported}
+    eta = reassembly.eta_by_omega(reassemblies)
+    files = {}
+    for which in ("eta_num", "eta_weight"):
+        panels = {shape: {g: d["values"] for g, d in e[which]["groups"].items()}
+                  for shape, e in eta.items()}
+        files[which] = _save(figures.boxes_figure, panels, folder, f"figure9-{which}",
+                             which.replace("_", " "), f"Figure 9: {which} by omega")
+    out["figure9"] = {"eta": eta, "files": files, "paper": paper.ETA_MODULAR.to_dict()}
+    return out
+
+
+def _discovery(campaign, loaded, folder: Path) -> dict:
+    rows = discovery_rows(campaign, loaded)
+    files = _save(figures.discovery_figure, rows, folder, "figure12-discovery") \
+        if any(r["done"] for r in rows) else []
+    return {"robots": rows, "summary": discovery_summary(rows), "files": files}
+
+
+def _validation(rows: list[dict], n_terrains: int, folder: Path) -> dict:
+    summary = {}
+    for row in rows:
+        group = summary.setdefault(f"{row['experiment']}, {row['shape']}", [])
+        group.append(row)
+    table = []
+    for name, members in summary.items():
+        logged = describe([m["logged"] for m in members])
+        finite = [m["validation"] for m in members if math.isfinite(m["validation"])]
+        table.append({"group": name, "experiment": members[0]["experiment"],
+                      "shape": members[0]["shape"], "n": len(members),
+                      "logged": logged, "validation": describe(finite),
+                      "validation_non_finite": len(members) - len(finite)})
+    files = _save(figures.validation_figure, rows, folder, "validation") if rows else []
+    return {"terrains": n_terrains, "robots": rows, "summary": table, "files": files}
+
+
+def _save(draw, data, folder: Path, stem: str, *args) -> list[str]:
+    """Draw and save a figure; nothing (no file) when there is nothing to draw."""
+    if not data:
+        return []
+    return figures.save(draw(data, *args), folder, stem)
+
+
+__all__ = ["build_report"]

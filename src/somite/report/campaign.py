@@ -1,0 +1,135 @@
+"""A campaign directory as the report reads it (/work/notes/campaign-contract.md).
+
+``DIR/campaign.json`` lists the tasks; ``DIR/<task path>/done.json`` marks a finished one. The
+report trusts nothing else: a task without ``done.json`` is *missing* (its folder may hold a
+partial run), and so is a finished task whose files cannot be read (with the reason).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path, PurePosixPath
+
+from .._io import read_json
+from ..errors import bad
+
+FORMAT = "somite-campaign"
+VERSION = 1
+KINDS = ("evolve", "reassemble", "reoptimize", "discover")
+
+
+@dataclass(frozen=True)
+class Task:
+    """One task of ``campaign.json``; ``folder`` is absolute, ``done`` whether it finished."""
+
+    id: str
+    experiment: str
+    kind: str
+    folder: Path
+    needs: tuple[str, ...]
+    options: dict = field(repr=False)
+    done: bool
+
+    @property
+    def name(self) -> str:
+        """The task's name inside its experiment (``biped-s0``)."""
+        return self.id.split("/", 1)[-1]
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """The campaign: its name, experiments (id -> title and paper reference) and tasks."""
+
+    root: Path
+    name: str
+    source: str
+    experiments: dict[str, dict]
+    tasks: tuple[Task, ...]
+
+    def task(self, task_id: str) -> Task | None:
+        return next((t for t in self.tasks if t.id == task_id), None)
+
+    def of(self, experiment: str, kind: str | None = None) -> list[Task]:
+        """The tasks of ``experiment`` (of ``kind``), in the file's order."""
+        return [t for t in self.tasks
+                if t.experiment == experiment and (kind is None or t.kind == kind)]
+
+    def of_kind(self, kind: str) -> list[Task]:
+        """The tasks of ``kind``, in the file's order."""
+        return [t for t in self.tasks if t.kind == kind]
+
+    def status(self, unreadable=()) -> dict:
+        """Per experiment: tasks, finished, and the ids of the missing ones (unfinished, or
+        among ``unreadable``)."""
+        table = {}
+        for experiment in self.experiments:
+            tasks = self.of(experiment)
+            missing = [t.id for t in tasks if not t.done or t.id in unreadable]
+            table[experiment] = {"tasks": len(tasks), "done": len(tasks) - len(missing),
+                                 "missing": missing}
+        return table
+
+
+def read_campaign(root: str | Path) -> Campaign:
+    """Read ``root/campaign.json``; anything malformed is a one-line error."""
+    root = Path(root)
+    if not root.is_dir():
+        raise bad("campaign", str(root), "no such campaign directory")
+    path = root / "campaign.json"
+    if not path.is_file():
+        raise bad("campaign", str(root), "has no campaign.json (not a campaign directory)")
+    data = read_json(path, "campaign")
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise bad("campaign", str(path), f"not a {FORMAT!r} file")
+    if data.get("version") != VERSION:
+        raise bad("campaign.version", data.get("version"), f"this somite reads {VERSION}")
+    experiments = data.get("experiments", {})
+    if not isinstance(experiments, dict) or not all(
+        isinstance(v, dict) for v in experiments.values()
+    ):
+        raise bad("campaign.experiments", experiments, "expected an object of objects")
+    raw = data.get("tasks")
+    if not isinstance(raw, list):
+        raise bad("campaign.tasks", raw, "expected a list of tasks")
+    tasks, seen = [], set()
+    for item in raw:
+        task = _task(root, item)
+        if task.id in seen:
+            raise bad("campaign.tasks.id", task.id, "listed twice")
+        seen.add(task.id)
+        tasks.append(task)
+    # Experiments that only the tasks name still get a section.
+    for task in tasks:
+        experiments.setdefault(task.experiment, {})
+    return Campaign(root, str(data.get("name", root.name)), str(data.get("source", "")),
+                    experiments, tuple(tasks))
+
+
+def _task(root: Path, item) -> Task:
+    if not isinstance(item, dict):
+        raise bad("campaign.tasks", item, "a task must be an object")
+    for key in ("id", "experiment", "kind", "path"):
+        if not isinstance(item.get(key), str) or not item[key]:
+            raise bad(f"campaign.tasks.{key}", item.get(key), "must be a non-empty string")
+    if item["kind"] not in KINDS:
+        raise bad("campaign.tasks.kind", item["kind"], f"use one of {list(KINDS)}")
+    relative = PurePosixPath(item["path"])
+    if relative.is_absolute() or ".." in relative.parts:
+        raise bad("campaign.tasks.path", item["path"], "must be relative, inside the campaign")
+    needs = item.get("needs", [])
+    options = item.get("options", {})
+    if not isinstance(needs, list) or not all(isinstance(n, str) for n in needs):
+        raise bad("campaign.tasks.needs", needs, "expected a list of task ids")
+    if not isinstance(options, dict):
+        raise bad("campaign.tasks.options", options, "expected an object")
+    folder = root / relative
+    return Task(item["id"], item["experiment"], item["kind"], folder, tuple(needs), options,
+                (folder / "done.json").is_file())
+
+
+def task_row(task: Task, done: bool) -> dict:
+    """The start of a task's row in a report table."""
+    return {"task": task.id, "experiment": task.experiment, "done": done}
+
+
+__all__ = ["Campaign", "KINDS", "Task", "read_campaign", "task_row"]

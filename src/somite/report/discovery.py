@@ -1,0 +1,68 @@
+"""Module discovery in numbers (paper section 5.3, Figure 12): the partition found for every
+evolved best, and how often the most compact module joins the front and the rear.
+
+The paper's one observation is qualitative: the bipeds' most compact module "tends to span
+horizontally across the body, connecting the front with the rear". Here a module *spans* when
+it holds a voxel of the body's first column and one of its last.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..analysis.stats import describe
+from . import paper
+from .campaign import Campaign, task_row
+from .evolution import shape_order
+from .load import Loaded, shape_name
+
+
+def discovery_rows(campaign: Campaign, loaded: Loaded) -> list[dict]:
+    """One row per discover task: the partition, the most compact module and its score."""
+    rows = []
+    for task in campaign.of_kind("discover"):
+        found = loaded.discovery.get(task.id)
+        row = {**task_row(task, found is not None), "genome": task.options.get("genome")}
+        if found is not None:
+            partition = found["partition"]
+            voxels = [tuple(v) for v in found["best"]["voxels"]]
+            columns = [x for x, _ in partition.shape.voxels]
+            row.update({
+                "shape": shape_name(partition.shape.grid_string()),
+                "grid": partition.grid_string(),
+                "shape_grid": partition.shape.grid_string(),
+                "modules": len(partition.modules),
+                "best_voxels": [list(v) for v in voxels],
+                "best_size": len(voxels),
+                "compactness": found["best"].get("compactness"),
+                "spans_front_to_rear": bool({min(columns), max(columns)}
+                                            <= {x for x, _ in voxels}),
+                "b_min": found.get("b_min"), "b_max": found.get("b_max"),
+            })
+        rows.append(row)
+    return rows
+
+
+def discovery_summary(rows: list[dict]) -> dict:
+    """Per shape: robots partitioned, modules per robot, the most compact module's size and
+    compactness, and the share of those modules that span front to rear."""
+    by_shape: dict[str, list[dict]] = {}
+    for row in rows:
+        if row["done"]:
+            by_shape.setdefault(row["shape"], []).append(row)
+    out = {}
+    for shape in shape_order(by_shape):
+        members = by_shape[shape]
+        compactness = [np.nan if r["compactness"] is None else r["compactness"] for r in members]
+        out[shape] = {
+            "robots": len(members),
+            "modules": describe([r["modules"] for r in members]),
+            "best_size": describe([r["best_size"] for r in members]),
+            "compactness": describe(compactness),
+            "spans_front_to_rear": float(np.mean([r["spans_front_to_rear"] for r in members])),
+        }
+    out["paper"] = paper.DISCOVERY.to_dict()
+    return out
+
+
+__all__ = ["discovery_rows", "discovery_summary"]

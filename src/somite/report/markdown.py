@@ -1,0 +1,299 @@
+"""``index.md`` from report.json's data (and ``index.html`` from it, through markdown-it, which
+rich already brings; without it there is no HTML). Numbers only: every one is in report.json."""
+
+from __future__ import annotations
+
+import math
+
+from . import paper
+
+FIGURES = "figures"
+
+
+def _n(value, digits: int = 3) -> str:
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "n/a"
+    return f"{value:.{digits}f}" if isinstance(value, float) else str(value)
+
+
+def _ms(summary: dict, digits: int = 3) -> str:
+    """``median ± sd`` of a :func:`~somite.analysis.stats.describe` summary."""
+    if not summary or not summary.get("n"):
+        return "n/a"
+    return f"{_n(summary['median'], digits)} ± {_n(summary['std'], digits)}"
+
+
+def _p(value) -> str:
+    if value is None or not math.isfinite(value):
+        return "n/a"
+    return "< 0.001" if value < 0.001 else f"{value:.3g}"
+
+
+def _table(header: list[str], rows: list[list]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return lines + [""]
+
+
+def _images(files, alt: str) -> list[str]:
+    if not files:
+        return ["*No finished task for this figure.*", ""]
+    png = next((f for f in files if f.endswith(".png")), files[0])
+    others = ", ".join(f"[{f.rsplit('.', 1)[-1].upper()}]({FIGURES}/{f})" for f in files
+                       if f != png)
+    return [f"![{alt}]({FIGURES}/{png})", "", others, ""] if others else [
+        f"![{alt}]({FIGURES}/{png})", ""]
+
+
+def _claim(reported: dict) -> str:
+    return f"Paper ({reported['where']}): {reported['text']}."
+
+
+def _tests(comparison: dict, label: str) -> list[list]:
+    return [[label, f"{t['a']} vs {t['b']}", t["n_a"], t["n_b"], _n(t["u"], 1), _p(t["p"])]
+            for t in comparison["tests"]]
+
+
+def render_markdown(report: dict) -> str:
+    lines: list[str] = []
+    for part in (_head, _status, _table1, _curves, _boxes, _rho, _eta, _discovery,
+                 _discovered_reassembly, _validation, _timelapse):
+        lines += part(report)
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def _head(report: dict) -> list[str]:
+    c = report["campaign"]
+    return [
+        f"# Campaign report: {c['name']}", "",
+        f"Campaign `{c['directory']}` ({c['source'] or 'no source recorded'}), written by "
+        "`somite report`. Every number below is also in `report.json`; figures are in "
+        "`figures/` as PNG and SVG. Medians and standard deviations (ddof 0) are across runs; "
+        "p-values are two-sided Mann-Whitney U tests (scipy). The paper's numbers "
+        "(Pigozzi & Medvet) stand beside ours, with where they come from.", "",
+        "A run's logged best v_x is its luckiest terrain draw: each table also gives the same "
+        f"robots' mean v_x on the {report['validation']['terrains']} fixed validation terrains "
+        "(hilly-1-10-10000 on), never seen in training.", "",
+    ]
+
+
+def _status(report: dict) -> list[str]:
+    lines = ["## Tasks", ""]
+    experiments = report["campaign"]["experiments"]
+    rows = []
+    for name, s in report["status"]["experiments"].items():
+        meta = experiments.get(name, {})
+        rows.append([name, meta.get("title", ""), meta.get("paper", ""), s["tasks"], s["done"],
+                     ", ".join(s["missing"]) or "none"])
+    lines += _table(["experiment", "title", "paper", "tasks", "finished", "missing"], rows)
+    for task, why in report["status"]["unreadable"].items():
+        lines.append(f"- {task}: finished but unreadable, shown as missing ({why})")
+    return lines + [""] if report["status"]["unreadable"] else lines
+
+
+def _table1(report: dict) -> list[str]:
+    lines = ["## Table 1: the best controller at the start and at the end", "",
+             "Median ± sd across runs of the best individual's |V|, |E|, |G| and v_x [m/s] at "
+             "generation 0 and at the last generation; the paper's row (rq1, 10 runs, 3000 "
+             "generations) below ours.", ""]
+    rows = []
+    for row in report["table1"]:
+        i, f = row["initial"], row["final"]
+        rows.append([row["experiment"], row["shape"], f"{row['n']} of {row['tasks']}",
+                     _n(row["generations"]["median"], 0),
+                     _ms(i["nodes"], 1), _ms(i["edges"], 1), _ms(i["size"], 1),
+                     _ms(i["velocity"]), _ms(f["nodes"], 1), _ms(f["edges"], 1),
+                     _ms(f["size"], 1), _ms(f["velocity"]), _ms(row["validation"]) + (
+                         f" ({row['validation_non_finite']} non-finite)"
+                         if row["validation_non_finite"] else ""),
+                     _n(row["size_increase"] * 100, 0) + " %"
+                     if row["size_increase"] == row["size_increase"] else "n/a"])
+        if row["paper"]:
+            p = row["paper"]
+            show = {w: {k: paper.Reported(**v).show() for k, v in p[w].items()}
+                    for w in ("initial", "final")}
+            rows.append(["paper", row["shape"], "10", "3000", show["initial"]["nodes"],
+                         show["initial"]["edges"], show["initial"]["size"],
+                         show["initial"]["velocity"], show["final"]["nodes"],
+                         show["final"]["edges"], show["final"]["size"],
+                         show["final"]["velocity"], "not measured",
+                         _n(p["size_increase"]["value"] * 100, 0) + " %"])
+    header = ["experiment", "shape", "runs", "generations", "initial \\|V\\|", "initial \\|E\\|",
+              "initial \\|G\\|", "initial v_x", "final \\|V\\|", "final \\|E\\|",
+              "final \\|G\\|", "final v_x (logged)", "final v_x (validation)",
+              "\\|G\\| increase"]
+    return lines + _table(header, rows)
+
+
+def _curves(report: dict) -> list[str]:
+    lines = []
+    for key, title in (("figure3", "Figure 3: best v_x and |G| over the generations (rq1)"),
+                       ("figure10", "Figure 10: best v_x and |G| by omega")):
+        lines += [f"## {title}", "",
+                  "Median ± sd across runs (line and band); dashed with dots: the median of the "
+                  "logged validation v_x, where the runs measured it.", ""]
+        lines += _images(report[key]["files"], title)
+    return lines
+
+
+def _boxes(report: dict) -> list[str]:
+    lines = []
+    for key, title in (("figure5", "Figure 5: final best v_x, with and without topology "
+                        "optimisation"), ("figure11", "Figure 11: final best v_x by omega")):
+        data = report[key]
+        lines += [f"## {title}", "", _claim(data["paper"]), ""]
+        rows, tests = [], []
+        for shape, c in data["comparison"].items():
+            for group, logged in c["logged"]["groups"].items():
+                validated = c["validation"]["groups"].get(group, {})
+                rows.append([shape, group, logged["n"], _ms(logged), _ms(validated)])
+            tests += _tests(c["logged"], f"{shape}, logged")
+            tests += _tests(c["validation"], f"{shape}, validation")
+        lines += _table(["shape", "group", "runs", "logged v_x", "v_x on validation terrains"],
+                        rows)
+        lines += _table(["sample", "pair", "n_a", "n_b", "U", "p (two-sided)"], tests)
+        one_sided = [[f"{shape}, {which}", f"{t['a']} > {t['b']}", _n(t["u"], 1), _p(t["p"])]
+                     for shape, tests in data.get("one_sided", {}).items()
+                     for which, t in tests.items() if t is not None]
+        if one_sided:
+            lines += ["The paper's own test, one-sided:", ""]
+            lines += _table(["sample", "alternative", "U", "p (one-sided)"], one_sided)
+        lines += _images(data["files"]["logged"], title + " (logged)")
+        lines += _images(data["files"]["validation"], title + " (validation)")
+    return lines
+
+
+def _rho_table(data: dict, reported=None) -> list[str]:
+    rows, tests = [], []
+    for shape, groups in data["curves"].items():
+        for group, g in groups.items():
+            start = [m[0] for m in [g["median"]] if m]
+            claim = ""
+            if reported and group == "homogeneous" and shape in reported:
+                claim = reported[shape]["text"]
+            rows.append([shape, group, len(g["tasks"]), _n(start[0] if start else None),
+                         _n(g["median"][-1] if g["median"] else None), claim])
+        tests += _tests(data["end"][shape], shape)
+    lines = _table(["shape", "group", "re-optimisations", "median rho at the start",
+                    "median rho at the end", "paper"], rows)
+    if tests:
+        lines += ["rho at the end of the re-optimisation, compared:", ""]
+        lines += _table(["shape", "pair", "n_a", "n_b", "U", "p (two-sided)"], tests)
+    return lines
+
+
+def _rho(report: dict) -> list[str]:
+    lines = ["## Figures 7 and 8: transferability rho during re-optimisation", "",
+             "rho = v_x of the re-optimised robot's best / mean v_x of its two donors, every v_x "
+             "the mean over the validation terrains (transfer.csv); the line is the median over "
+             "the reassembled robots, the band ± sd. rho = 1 recovers the donors' velocity.", ""]
+    lines += ["### Figure 7: homogeneous and heterogeneous reassembly", ""]
+    lines += _rho_table(report["figure7"], report["figure7"]["paper"])
+    lines += _images(report["figure7"]["files"], "Figure 7")
+    lines += ["### Figure 8: homogeneous reassembly by omega", "",
+              _claim(report["figure8"]["paper"]), ""]
+    lines += _rho_table(report["figure8"])
+    lines += _images(report["figure8"]["files"], "Figure 8")
+    return lines
+
+
+def _eta(report: dict) -> list[str]:
+    data = report["figure9"]
+    lines = ["## Figure 9: edges cut by disassembly (eta) by omega", "",
+             "eta_num: share of the donors' edges that cross modules and are dropped; "
+             "eta_weight: the same share of sum(|w| + |b|); pooled over both donors of each "
+             "homogeneous reassembly (the authors' count).", "",
+             _claim(data["paper"]), ""]
+    rows, tests = [], []
+    for shape, e in data["eta"].items():
+        reported = e.get("paper_omega_1", {})
+        for group in e["eta_num"]["groups"]:
+            num, weight = e["eta_num"]["groups"][group], e["eta_weight"]["groups"][group]
+            claim = ""
+            if group == "omega 1" and reported:
+                claim = (f"{reported['eta_num']['value']} / {reported['eta_weight']['value']} "
+                         f"({reported['eta_num']['where']})")
+            rows.append([shape, group, num["n"], _n(num["median"]), _n(weight["median"]), claim])
+        tests += _tests(e["eta_num"], f"{shape}, eta_num")
+        tests += _tests(e["eta_weight"], f"{shape}, eta_weight")
+    lines += _table(["shape", "donors", "reassemblies", "median eta_num", "median eta_weight",
+                     "paper (median eta_num / eta_weight)"], rows)
+    lines += _table(["sample", "pair", "n_a", "n_b", "U", "p (two-sided)"], tests)
+    for which, files in data["files"].items():
+        lines += _images(files, f"Figure 9, {which}")
+    return lines
+
+
+def _discovery(report: dict) -> list[str]:
+    data = report["discovery"]
+    claim = data["summary"]["paper"]
+    lines = ["## Figure 12: automatic module discovery", "",
+             "Each evolved best partitioned around its most compact module (eq. 5; red in the "
+             "figure). A module *spans* when it holds voxels of the body's first and last "
+             f"column. {_claim(claim)}", ""]
+    rows = [[shape, s["robots"], _n(s["modules"]["median"], 1), _n(s["best_size"]["median"], 1),
+             _ms(s["compactness"]), f"{100 * s['spans_front_to_rear']:.0f} %"]
+            for shape, s in data["summary"].items() if shape != "paper"]
+    lines += _table(["shape", "robots", "median modules", "median size of the most compact",
+                     "its compactness", "spans front to rear"], rows)
+    rows = [[r["task"], r.get("grid", "missing"), _n(r.get("compactness")),
+             r.get("spans_front_to_rear", "")] for r in data["robots"]]
+    lines += _table(["robot", "partition (rows from the top)", "compactness", "spans"], rows)
+    return lines + _images(data["files"], "Figure 12")
+
+
+def _discovered_reassembly(report: dict) -> list[str]:
+    lines = ["## Beyond the paper: reassembly along the discovered modules", ""]
+    lines += _rho_table(report["rq3_reassembly"])
+    return lines + _images(report["rq3_reassembly"]["files"], "rho along discovered modules")
+
+
+def _validation(report: dict) -> list[str]:
+    data = report["validation"]
+    lines = ["## Beyond the paper: every final best on the validation terrains", "",
+             f"Each run's final best re-run on the {data['terrains']} fixed validation terrains "
+             "(mean v_x), beside its logged v_x (its training draw).", ""]
+    rows = [[s["experiment"], s["shape"], s["n"], _ms(s["logged"]), _ms(s["validation"]),
+             s["validation_non_finite"]] for s in data["summary"]]
+    lines += _table(["experiment", "shape", "robots", "logged v_x", "v_x on validation terrains",
+                     "non-finite on a validation terrain"], rows)
+    rows = [[r["task"], _n(r["logged"]), _n(r["validation"]), _n(r["logged_validation"])]
+            for r in data["robots"]]
+    lines += _table(["robot", "logged v_x", "validation v_x (re-run)",
+                     "validation v_x (run's own log)"], rows)
+    return lines + _images(data["files"], "logged against validation v_x")
+
+
+def _timelapse(report: dict) -> list[str]:
+    lines = ["## Time-lapse of each experiment's best robot", "",
+             "The robot with the highest validation v_x of each experiment and shape, on the "
+             "first validation terrain (6 snapshots over the episode, left to right).", ""]
+    if not report["timelapse"]:
+        return lines + ["*No strip drawn.*", ""]
+    for strip in report["timelapse"]:
+        lines += [f"### {strip['experiment']}, {strip['shape']}: {strip['task']}", "",
+                  f"Validation v_x {_n(strip['validation'])} m/s, logged {_n(strip['logged'])} "
+                  f"m/s, on {strip['terrain']}.", "",
+                  f"![{strip['task']}]({FIGURES}/{strip['file']})", ""]
+    return lines
+
+
+def render_html(text: str, title: str) -> str | None:
+    """``text`` as a standalone HTML page, or None without markdown-it."""
+    try:
+        from markdown_it import MarkdownIt
+    except ImportError:
+        return None
+    body = MarkdownIt("commonmark").enable("table").render(text)
+    style = ("body{font-family:sans-serif;max-width:72em;margin:2em auto;padding:0 1em}"
+             "table{border-collapse:collapse;font-size:0.85em}td,th{border:1px solid #ccc;"
+             "padding:2px 6px}img{max-width:100%}")
+    return (f"<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{_escape(title)}"
+            f"</title><style>{style}</style></head><body>\n{body}</body></html>\n")
+
+
+def _escape(text: str) -> str:
+    return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+
+
+__all__ = ["render_html", "render_markdown"]

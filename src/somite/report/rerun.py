@@ -1,0 +1,115 @@
+"""Every final best re-run on the fixed validation terrains, cached in the report folder.
+
+A run's logged best v_x is its luckiest terrain draw; the report puts its mean v_x on the
+validation terrains (``hilly-1-10-10000``, ...: never training terrains) beside it. The episodes
+are those of :meth:`somite.tasks.task.Locomotion.validate` (sensor-noise seed 0), with each
+run's own episode settings, so a run that validated its last generation logged the same number.
+
+The re-runs are cached in ``REPORT/cache/validation.json``, keyed by a hash of the genome, the
+episode settings and the terrains: a second report on the same campaign simulates nothing.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping
+from dataclasses import asdict
+from pathlib import Path
+
+from .._io import write_atomic
+from ..analysis.stats import RunLog
+from ..brain.genome import Genome
+from ..errors import SomiteError
+from ..experiments.config import resolve
+from ..sim.config import SimConfig
+from ..tasks.validation import evaluate, validation_terrains
+from ..tasks.velocity import mean_velocity
+
+CACHE_FORMAT = "somite-report-cache"
+CACHE_VERSION = 1
+
+
+def episode_settings(run: RunLog) -> SimConfig:
+    """The episode settings the run trained with (its ``config.json``)."""
+    return resolve(run.config).task().sim
+
+
+def cache_key(genome: Genome, sim: SimConfig, terrains: list[str]) -> str:
+    """What decides a re-run's numbers, hashed (somite's version included: the simulator may
+    change between versions)."""
+    import somite
+
+    text = json.dumps({"genome": genome.to_compact(), "sim": asdict(sim), "terrains": terrains,
+                       "somite": somite.__version__}, sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def read_cache(path: Path) -> dict:
+    """The cache's entries; an unreadable or foreign cache is an empty one (it is rebuilt)."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError):
+        return {}
+    if not isinstance(data, dict) or data.get("format") != CACHE_FORMAT or data.get(
+        "version"
+    ) != CACHE_VERSION or not isinstance(data.get("entries"), dict):
+        return {}
+    return data["entries"]
+
+
+def write_cache(path: Path, entries: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    data = {"format": CACHE_FORMAT, "version": CACHE_VERSION, "entries": entries}
+    write_atomic(path, json.dumps(data, indent=1, allow_nan=True) + "\n")
+
+
+def _usable(entry, n: int) -> bool:
+    return isinstance(entry, list) and len(entry) == n and all(
+        isinstance(v, (int, float)) and not isinstance(v, bool) for v in entry)
+
+
+def rerun_finals(
+    runs: Mapping[str, RunLog], bests: Mapping[str, Genome], n_terrains: int, cache: Path
+) -> tuple[dict[str, dict], int]:
+    """Each run's final best on ``n_terrains`` validation terrains; returns the results by
+    task id and how many genomes had to be simulated (0 when the cache held them all).
+
+    A result: ``velocities`` per terrain, their ``mean`` (NaN if any is NaN), the ``logged``
+    final best v_x and the log's own last ``validation_velocity`` (NaN where not measured).
+    """
+    terrains = validation_terrains(n_terrains)
+    names = [t.name for t in terrains]
+    entries = read_cache(cache)
+    keys, todo = {}, {}
+    for task_id, run in runs.items():
+        sim = episode_settings(run)
+        keys[task_id] = cache_key(bests[task_id], sim, names)
+        if not _usable(entries.get(keys[task_id]), len(names)):
+            todo.setdefault(sim, {})[keys[task_id]] = bests[task_id]
+    for sim, genomes in todo.items():
+        # One batch per episode setting: every genome on every terrain at once.
+        velocities = evaluate(list(genomes.values()), terrains, sim)
+        for key, row in zip(genomes, velocities):
+            entries[key] = [float(v) for v in row]
+    simulated = sum(len(g) for g in todo.values())
+    if simulated:
+        try:
+            write_cache(cache, entries)
+        except OSError as error:
+            raise SomiteError(f"out={str(cache.parent)!r}: cannot write the cache ({error})"
+                              ) from None
+    results = {}
+    for task_id, run in runs.items():
+        velocities = entries[keys[task_id]]
+        results[task_id] = {
+            "terrains": names,
+            "velocities": velocities,
+            "mean": float(mean_velocity(velocities)),
+            "logged": run.final("best_velocity"),
+            "logged_validation": run.final("validation_velocity"),
+        }
+    return results, simulated
+
+
+__all__ = ["cache_key", "episode_settings", "rerun_finals"]

@@ -1,0 +1,160 @@
+"""The batched episode on an NVIDIA GPU: one CUDA thread per robot, the CPU's episode code.
+
+The kernel runs :func:`~somite.tasks.episode.episode`, the very function that each CPU thread
+runs for its robot, compiled as a CUDA device function by :func:`somite._jit.device_twin`
+(with everything it calls), so the two backends cannot drift apart. What a CPU thread
+allocates for its robot comes here from per-batch device arrays (:class:`Work`).
+
+The batch's inputs and work arrays are stored robot-fastest in GPU memory
+(:func:`robot_major`): the kernels still index ``a[b, ...]``, but neighbouring threads then
+read neighbouring addresses, which the GPU serves in one memory transaction instead of 32.
+
+Import this module only when :func:`~somite.tasks.backends.cuda_unavailable` says None.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import config, cuda
+
+from .._jit import device_twin
+from ..sim.robot import ground_view, robot_in, scratch_in
+from ..sim.sensors import lidar_rays
+from .episode import Controllers, Trace, episode
+
+THREADS_PER_BLOCK = 64
+"""Robots per thread block: small, since a thread's robot keeps many registers busy."""
+
+
+class Work(NamedTuple):
+    """Per-robot work arrays of a batch (B robots, padded like the system's arrays)."""
+
+    strength: np.ndarray  # (B, S) from robot_in
+    min_length: np.ndarray  # (B, S)
+    inv_mass: np.ndarray  # (B, P)
+    rest: np.ndarray  # (B, S) the Scratch fields, in order
+    factor: np.ndarray  # (B, V)
+    force: np.ndarray  # (B, P, 2)
+    dx: np.ndarray  # (B, S)
+    dy: np.ndarray
+    dvx: np.ndarray
+    dvy: np.ndarray
+    fx: np.ndarray
+    fy: np.ndarray
+    contact: np.ndarray  # (B, P) bool
+    segment: np.ndarray  # (B, P + 1) int64
+    pos: np.ndarray  # (B, P, 2) the state of episode()
+    vel: np.ndarray  # (B, P, 2)
+    voxels: np.ndarray  # (B, V, 6)
+    touch_hist: np.ndarray  # (B, V, touch window)
+    vel_hist: np.ndarray  # (B, V, velocity window, 2)
+    readings: np.ndarray  # (B, R)
+    actuation: np.ndarray  # (B, V)
+    h_prev: np.ndarray  # (B, N)
+    h_next: np.ndarray  # (B, N)
+
+
+def robot_major(host: np.ndarray | None, shape: tuple, dtype=np.float64):
+    """A device array of ``shape`` (robot axis first), stored with the robot axis fastest;
+    a copy of ``host`` when given, else uninitialised."""
+    if host is not None:
+        shape, dtype = host.shape, host.dtype
+    if len(shape) < 2:
+        return cuda.to_device(host) if host is not None else cuda.device_array(shape, dtype)
+    moved = np.empty(shape[1:] + shape[:1], dtype) if host is None else np.ascontiguousarray(
+        np.moveaxis(host, 0, -1))
+    if config.ENABLE_CUDASIM:
+        from numba.cuda.simulator.cudadrv.devicearray import FakeCUDAArray
+
+        return FakeCUDAArray(np.moveaxis(moved, -1, 0))
+    from numba.cuda.cudadrv.devicearray import DeviceNDArray
+
+    device = cuda.to_device(moved)
+    strides = device.strides[-1:] + device.strides[:-1]
+    return DeviceNDArray(shape, strides, np.dtype(dtype), gpu_data=device.gpu_data)
+
+
+def new_work(system, ctrl, params) -> Work:
+    n = system.n_points.shape[0]
+    p = system.initial_pos.shape[1]
+    s = system.spring_ends.shape[1]
+    v = system.voxel_corners.shape[1]
+    r = system.reading_code.shape[1]
+    nodes = max(1, ctrl.node_kind.shape[1])
+
+    def new(*tail, dtype=np.float64):
+        return robot_major(None, (n, *tail), dtype)
+
+    return Work(
+        new(s), new(s), new(p), new(s), new(v), new(p, 2), new(s), new(s), new(s), new(s),
+        new(s), new(s), new(p, dtype=np.bool_), new(p + 1, dtype=np.int64), new(p, 2),
+        new(p, 2), new(v, 6), new(v, int(params.touch_window)),
+        new(v, int(params.velocity_window), 2), new(r), new(v), new(nodes), new(nodes),
+    )
+
+
+def _upload(batch: tuple, robot_axis: bool = True) -> tuple:
+    """A NamedTuple of host arrays as device arrays (same NamedTuple type)."""
+    return type(batch)(*(
+        robot_major(a, a.shape) if robot_axis and a.ndim > 1 else cuda.to_device(a)
+        for a in batch
+    ))
+
+
+_robot_in = device_twin(robot_in)
+_scratch_in = device_twin(scratch_in)
+_ground_view = device_twin(ground_view)
+_episode = device_twin(episode)
+
+
+@cuda.jit
+def _run_batch(system, ctrl, params, noise, seeds, n_steps, trace, work, rays):
+    b = cuda.grid(1)
+    if b >= seeds.shape[0]:
+        return
+    n_points = system.n_points[b]
+    n_springs = system.n_springs[b]
+    n_voxels = system.n_voxels[b]
+    n_nodes = ctrl.n_nodes[b]
+    robot = _robot_in(system, b, params, work.strength[b, :n_springs],
+                      work.min_length[b, :n_springs], work.inv_mass[b, :n_points])
+    scratch = _scratch_in(
+        robot, work.rest[b, :n_springs], work.factor[b, :n_voxels], work.force[b, :n_points],
+        work.dx[b, :n_springs], work.dy[b, :n_springs], work.dvx[b, :n_springs],
+        work.dvy[b, :n_springs], work.fx[b, :n_springs], work.fy[b, :n_springs],
+        work.contact[b, :n_points], work.segment[b, :n_points + 1],
+    )
+    _episode(b, system, ctrl, params, noise, seeds[b], n_steps, trace, robot,
+             _ground_view(system, b), scratch, work.pos[b, :n_points], work.vel[b, :n_points],
+             work.voxels[b, :n_voxels], work.touch_hist[b, :n_voxels],
+             work.vel_hist[b, :n_voxels], work.readings[b, :system.n_readings[b]],
+             work.actuation[b, :n_voxels], work.h_prev[b, :n_nodes], work.h_next[b, :n_nodes],
+             rays)
+
+
+def run_batch(system, ctrl: Controllers, params, noise, seeds, n_steps: int,
+              trace: Trace) -> None:
+    """:func:`somite.tasks.episode.run_batch` on the GPU: fills the host ``trace`` (which must
+    not record: its per-step arrays must have 0 rows)."""
+    if trace.pos.shape[0]:
+        raise ValueError("the cuda backend does not record episodes")
+    n = seeds.shape[0]
+    if n == 0:
+        return
+    terrain = system._fields.index("terrain_of")
+    device_system = type(system)(*(
+        robot_major(a, a.shape) if i < terrain and a.ndim > 1 else cuda.to_device(a)
+        for i, a in enumerate(system)
+    ))
+    # The trace keeps the host's layout: a thread writes a few values of it per control step,
+    # and the copies back need no transposing.
+    device_trace = _upload(trace, robot_axis=False)
+    blocks = (n + THREADS_PER_BLOCK - 1) // THREADS_PER_BLOCK
+    _run_batch[blocks, THREADS_PER_BLOCK](
+        device_system, _upload(ctrl), params, cuda.to_device(noise), cuda.to_device(seeds),
+        n_steps, device_trace, new_work(system, ctrl, params), cuda.to_device(lidar_rays(params)),
+    )
+    for host, device in zip(trace, device_trace):
+        device.copy_to_host(host)

@@ -1,0 +1,145 @@
+"""The figures of ``somite report`` (:mod:`somite.report`), each written as PNG and SVG
+(atomically), one panel per shape.
+
+The curves and boxes are drawn by :mod:`somite.viz.plots` (the same code as ``somite plot``),
+so a figure of the report and one of ``somite plot`` on the same runs agree.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .output import atomic_output
+from .plots import COLOURS, plot_curves, plot_samples, plot_validation
+
+FORMATS = ("png", "svg")
+MODULE_COLOURS = ("#d62728", "#1f77b4", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#17becf")
+"""The most compact module (``A``) red, as in the paper's Figure 12; the others after it."""
+
+
+def _figure(columns: int, rows: int = 1, width: float = 4.6, height: float = 3.4):
+    # No pyplot: no global figure registry and no GUI backend to pick.
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(max(1, columns) * width, rows * height), layout="constrained")
+    FigureCanvasAgg(figure)
+    axes = figure.subplots(rows, max(1, columns), squeeze=False)
+    return figure, axes
+
+
+def save(figure, folder: Path, stem: str) -> list[str]:
+    """Write ``stem.png`` and ``stem.svg`` into ``folder``; returns their names."""
+    names = []
+    for fmt in FORMATS:
+        path = folder / f"{stem}.{fmt}"
+        with atomic_output(path) as tmp:
+            figure.savefig(tmp, dpi=110, format=fmt)
+        names.append(path.name)
+    return names
+
+
+def curves_figure(found: dict, title: str):
+    """Figures 3 and 10: per shape (columns), the best's v_x (top, dashed: on the validation
+    terrains) and |G| (bottom), median +/- sd across runs, one colour per group."""
+    figure, axes = _figure(len(found), 2, height=3.0)
+    for column, (shape, groups) in enumerate(found.items()):
+        top, bottom = axes[0, column], axes[1, column]
+        listed = {label: list(runs.values()) for label, runs in groups.items()}
+        plot_curves(top, listed, "best_velocity", "best $v_x$ [m/s]")
+        plot_validation(top, listed)
+        plot_curves(bottom, listed, "best_size", "|G| of the best")
+        top.set_title(shape, fontsize=10)
+        bottom.set_xlabel("generation")
+        if column == 0:
+            top.legend(fontsize=6, frameon=False)
+    figure.suptitle(title, fontsize=10)
+    return figure
+
+
+def boxes_figure(panels: dict[str, dict[str, list[float]]], ylabel: str, title: str):
+    """Figures 5, 9 and 11: per shape, one box per group with the pairwise p-values."""
+    figure, axes = _figure(len(panels), width=1.6 + 1.2 * max(
+        (len(p) for p in panels.values()), default=1))
+    for column, (shape, samples) in enumerate(panels.items()):
+        plot_samples(axes[0, column], samples, ylabel)
+        axes[0, column].set_title(shape, fontsize=10)
+    figure.suptitle(title, fontsize=10)
+    return figure
+
+
+def rho_figure(found: dict, title: str):
+    """Figures 7 and 8: per shape, the median rho per generation of each group (band: +/- sd
+    across the re-optimisations); rho = 1 recovers the donors' mean v_x."""
+    figure, axes = _figure(len(found))
+    for column, (shape, groups) in enumerate(found.items()):
+        axes_ = axes[0, column]
+        for k, (label, data) in enumerate(groups.items()):
+            colour = COLOURS[k % len(COLOURS)]
+            x = np.asarray(data["generation"])
+            median, sd = np.asarray(data["median"]), np.asarray(data["sd"])
+            axes_.fill_between(x, median - sd, median + sd, color=colour, alpha=0.15, lw=0)
+            axes_.plot(x, median, color=colour, lw=1.5, label=f"{label} ({len(data['tasks'])})")
+        axes_.axhline(1.0, color="black", lw=0.8, ls=":")
+        axes_.set_title(shape, fontsize=10)
+        axes_.set_xlabel("generation of the re-optimisation")
+        axes_.set_ylabel(r"median $\rho$")
+        axes_.grid(alpha=0.3)
+        axes_.legend(fontsize=7, frameon=False)
+    figure.suptitle(title, fontsize=10)
+    return figure
+
+
+def validation_figure(rows: list[dict]):
+    """Every final best: its logged v_x (x) against its mean v_x on the validation terrains
+    (y), one colour per experiment; the diagonal is 'as good as logged'."""
+    figure, axes = _figure(1, width=5.6, height=4.4)
+    axes_ = axes[0, 0]
+    experiments = list(dict.fromkeys(r["experiment"] for r in rows))
+    for k, experiment in enumerate(experiments):
+        members = [r for r in rows if r["experiment"] == experiment]
+        axes_.scatter([r["logged"] for r in members], [r["validation"] for r in members], s=14,
+                      color=COLOURS[k % len(COLOURS)], label=experiment)
+    values = [v for r in rows for v in (r["logged"], r["validation"]) if np.isfinite(v)]
+    if values:
+        low, high = min(values), max(values)
+        axes_.plot([low, high], [low, high], color="black", lw=0.8, ls=":")
+    axes_.set_xlabel("logged best $v_x$ at the last generation [m/s]")
+    axes_.set_ylabel("mean $v_x$ on the validation terrains [m/s]")
+    axes_.grid(alpha=0.3)
+    axes_.legend(fontsize=7, frameon=False)
+    return figure
+
+
+def discovery_figure(rows: list[dict], per_row: int = 5):
+    """Figure 12: every partitioned robot, one colour per module, the most compact red."""
+    from matplotlib.patches import Rectangle
+
+    from ..sim.partition import Partition
+
+    done = [r for r in rows if r["done"]]
+    columns = min(per_row, max(1, len(done)))
+    lines = max(1, -(-len(done) // columns))
+    figure, axes = _figure(columns, lines, width=1.9, height=1.6)
+    for axes_ in axes.flat:
+        axes_.set_axis_off()
+    for axes_, row in zip(axes.flat, done):
+        partition = Partition.from_grid(row["grid"], row["shape_grid"])
+        others = [m for m in partition.modules if m != "A"]
+        for (x, y), label in zip(partition.shape.voxels, partition.labels):
+            k = 0 if label == "A" else 1 + others.index(label) % (len(MODULE_COLOURS) - 1)
+            axes_.add_patch(Rectangle((x, y), 1, 1, facecolor=MODULE_COLOURS[k],
+                                      edgecolor="white", alpha=0.85))
+        axes_.set_xlim(0, partition.shape.width)
+        axes_.set_ylim(0, partition.shape.height)
+        axes_.set_aspect("equal")
+        compactness = row["compactness"]
+        shown = "n/a" if compactness is None else f"{compactness:.2f}"
+        axes_.set_title(f"{row['task'].split('/', 1)[-1]}\nc = {shown}", fontsize=7)
+    return figure
+
+
+__all__ = ["boxes_figure", "curves_figure", "discovery_figure", "rho_figure", "save",
+           "validation_figure"]

@@ -1,0 +1,118 @@
+"""The cuda backend runs the CPU's episode code (checked on numba-cuda's simulator, as CI has no
+GPU), and lockstep runs write the logs their solo runs write."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from somite import evolve_lockstep
+from somite.cli import main
+from somite.experiments.config import resolve
+from somite.experiments.runner import evolve
+from somite.tasks.backends import check_backend, cuda_unavailable
+
+from .conftest import expect_error
+
+HAS_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
+
+# Two robots of different bodies and controllers, on their own hilly terrains, 1 s: the CPU
+# kernel against the CUDA kernel run by the simulator (plain Python, one thread per robot).
+_SIMULATOR_SCRIPT = """
+import json, sys, warnings
+import numpy as np
+from somite.bench import random_graph
+from somite.sim.body import Body
+from somite.sim.config import pack_params, preset
+from somite.sim.sensors import noise_table
+from somite.sim.system import compile_system
+from somite.sim.terrain import hilly
+from somite.tasks.episode import new_trace
+from somite.tasks.locomotion import compile_controllers, outcomes, run
+from somite.tasks import cuda_batch
+
+warnings.simplefilter("ignore", RuntimeWarning)  # uint64 hashing wraps, as it does compiled
+config = preset(sys.argv[1], duration=1.0)
+rng = np.random.default_rng(1)
+bodies = [Body.build("worm"), Body.build("biped")]
+graphs = [random_graph(body, 40, rng) for body in bodies]
+system = compile_system(bodies, [hilly(1.0, 10.0, 7), hilly(1.0, 10.0, 8)])
+ctrl = compile_controllers(graphs, [b.shape.n_voxels for b in bodies])
+seeds = np.array([11, 12], dtype=np.uint64)
+cpu = run(system, ctrl, config, seeds)
+gpu = new_trace(2, config.n_steps, system, False)
+cuda_batch.run_batch(system, ctrl, pack_params(config), noise_table(config), seeds,
+                     config.n_steps, gpu)
+print(json.dumps({
+    "cpu": [o.velocity for o in outcomes(cpu, config)],
+    "cuda": [o.velocity for o in outcomes(gpu, config)],
+    "com": float(np.abs(cpu.com - gpu.com).max()),
+    "status": [cpu.status.tolist(), gpu.status.tolist()],
+    "fields": {f: float(np.abs(getattr(cpu, f) - getattr(gpu, f)).max())
+               for f in ("max_speed", "min_area", "diagnostics", "non_finite")},
+}))
+"""
+
+
+@pytest.mark.skipif(not HAS_NUMBA_CUDA, reason="numba-cuda is not installed")
+@pytest.mark.parametrize("preset_name", ["paper", "original-code"])
+def test_cuda_code_path_gives_the_cpus_velocities(preset_name):
+    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
+    done = subprocess.run([sys.executable, "-c", _SIMULATOR_SCRIPT, preset_name], env=env,
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    result = json.loads(done.stdout.splitlines()[-1])
+    assert result["status"] == [[0, 0], [0, 0]]
+    assert result["cpu"] == pytest.approx(result["cuda"], abs=1e-9)
+    assert abs(result["cpu"][0] - result["cpu"][1]) > 1e-6  # two different robots
+    assert result["com"] < 1e-9
+    assert max(result["fields"].values()) < 1e-9
+
+
+def test_unknown_or_unavailable_backend_is_a_one_line_error(capsys):
+    expect_error("backend", lambda: check_backend("gpu"))
+    if cuda_unavailable() is None:
+        pytest.skip("a CUDA GPU (or the simulator) is available here")
+    expect_error("backend", lambda: check_backend("cuda"))
+    for command in (["simulate", "--duration", "0.1"], ["bench", "--robots", "4"]):
+        assert main([*command, "--backend", "cuda"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "error: backend='cuda': " in err and "\n" not in err
+
+
+def _run_files(path: Path) -> dict:
+    """A run directory's files, without the wall-clock times they record."""
+    log = [line.split(",") for line in (path / "log.csv").read_text().splitlines()]
+    timed = log[0].index("elapsed_seconds")
+    checkpoint = json.loads((path / "checkpoint.json").read_text())
+    checkpoint.pop("elapsed_seconds")
+    return {
+        "log": [row[:timed] + row[timed + 1:] for row in log],
+        "bests": (path / "bests.jsonl").read_text(),
+        "best": (path / "best.json").read_text(),
+        "checkpoint": checkpoint,
+    }
+
+
+def test_lockstep_runs_write_what_solo_runs_write(tmp_path):
+    small = {"population": 5, "generations": 3, "duration": 0.5, "validate_every": 2}
+    configs = [
+        resolve({**small, "seed": 3}),
+        resolve({**small, "seed": 4, "shape": "biped"}),
+        resolve({**small, "seed": 5, "generations": 1, "duration": 0.4}),
+    ]
+    for i, config in enumerate(configs):
+        evolve(config, tmp_path / f"solo{i}")
+    eas = evolve_lockstep([(c, tmp_path / f"together{i}") for i, c in enumerate(configs)])
+    assert [ea.generation for ea in eas] == [3, 3, 1]
+    for i in range(len(configs)):
+        solo = _run_files(tmp_path / f"solo{i}")
+        assert _run_files(tmp_path / f"together{i}") == solo
+        assert len(solo["log"]) == configs[i].generations + 2
+    assert _run_files(tmp_path / "together0") != _run_files(tmp_path / "together1")

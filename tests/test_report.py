@@ -1,0 +1,259 @@
+"""``somite report`` on a tiny campaign directory: every section, numbers that agree with the
+run directories, missing tasks shown as missing, the cache, and bad input."""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy.stats import mannwhitneyu
+
+from somite.cli import main
+
+from .campaign_fixture import UNFINISHED, build_campaign
+
+SECTIONS = ("## Tasks", "## Table 1", "## Figure 3", "## Figure 10", "## Figure 5",
+            "## Figure 11", "### Figure 7", "### Figure 8", "## Figure 9", "## Figure 12",
+            "## Beyond the paper: reassembly along the discovered modules",
+            "## Beyond the paper: every final best on the validation terrains",
+            "## Time-lapse")
+
+
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory):
+    return build_campaign(tmp_path_factory.mktemp("campaign"))
+
+
+@pytest.fixture(scope="module")
+def report(campaign, tmp_path_factory):
+    out = tmp_path_factory.mktemp("report")
+    assert main(["report", str(campaign), "--out", str(out), "--quiet"]) == 0
+    return out, json.loads((out / "report.json").read_text())
+
+
+def _log(folder) -> list[dict]:
+    with open(folder / "log.csv", newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def _finished(campaign, experiment, prefix):
+    """The finished task folders of ``experiment`` whose names start with ``prefix``."""
+    return sorted(p for p in (campaign / experiment).iterdir()
+                  if p.name.startswith(prefix) and (p / "done.json").is_file())
+
+
+def check_sections(out, data) -> None:
+    """Every section in index.md, every figure listed written (PNG and SVG) and linked."""
+    text = (out / "index.md").read_text()
+    for heading in SECTIONS:
+        assert heading in text, heading
+    assert (out / "index.html").read_text().count("<table>") >= 8
+    listed = [*data["figure3"]["files"], *data["figure10"]["files"],
+              *data["figure5"]["files"]["logged"], *data["figure11"]["files"]["validation"],
+              *data["figure7"]["files"], *data["figure8"]["files"],
+              *data["figure9"]["files"]["eta_num"], *data["discovery"]["files"],
+              *data["rq3_reassembly"]["files"], *data["validation"]["files"]]
+    assert {name.rsplit(".", 1)[1] for name in listed} == {"png", "svg"}
+    for name in listed:
+        assert (out / "figures" / name).stat().st_size > 0
+        assert f"figures/{name}" in text
+
+
+def check_table1(campaign, data) -> None:
+    """Table 1's medians are those of the finished runs' log.csv rows."""
+    rows = {(r["experiment"], r["shape"]): r for r in data["table1"]}
+    for experiment in ("rq1", "ablation", "omega-10", "omega-0.1"):
+        for shape in ("biped", "worm"):
+            logs = [_log(f) for f in _finished(campaign, experiment, shape)]
+            row = rows[experiment, shape]
+            assert row["n"] == len(logs) > 0
+            last = [float(log[-1]["best_velocity"]) for log in logs]
+            assert row["final"]["velocity"]["median"] == float(np.median(last))
+            assert row["final"]["size"]["median"] == float(
+                np.median([float(log[-1]["best_size"]) for log in logs]))
+            assert row["initial"]["nodes"]["median"] == float(
+                np.median([float(log[0]["best_nodes"]) for log in logs]))
+    assert rows["rq1", "worm"]["paper"]["final"]["size"]["value"] == 216.0
+    assert rows["ablation", "worm"]["paper"] is None
+
+
+def check_p_values(campaign, data) -> None:
+    """Figure 5's p-values are scipy's on the logs' last rows."""
+    for shape in ("biped", "worm"):
+        finals = {e: [float(_log(f)[-1]["best_velocity"]) for f in _finished(campaign, e, shape)]
+                  for e in ("rq1", "ablation")}
+        [test] = data["figure5"]["comparison"][shape]["logged"]["tests"]
+        expected = mannwhitneyu(finals["rq1"], finals["ablation"], alternative="two-sided")
+        assert (test["u"], test["p"]) == (float(expected.statistic), float(expected.pvalue))
+        paper_test = data["figure5"]["one_sided"][shape]["logged"]
+        expected = mannwhitneyu(finals["rq1"], finals["ablation"], alternative="greater")
+        assert paper_test["p"] == float(expected.pvalue)
+
+
+def check_validation(campaign, data, terrains: int) -> None:
+    """The re-run of each rq1 best is the run's own validation of its last generation."""
+    robots = {r["task"]: r for r in data["validation"]["robots"]}
+    for folder in _finished(campaign, "rq1", ""):
+        last = _log(folder)[-1]
+        robot = robots[f"rq1/{folder.name}"]
+        assert robot["logged"] == float(last["best_velocity"])
+        assert robot["validation"] == float(last["validation_velocity"])
+        assert robot["validation"] == float(np.mean(robot["velocities"]))
+        assert len(robot["velocities"]) == terrains
+    assert any(r["task"].endswith("-reopt") for r in robots.values())
+
+
+def test_every_section_and_figure_is_written(report):
+    out, data = report
+    check_sections(out, data)
+    strips = {(s["experiment"], s["shape"]) for s in data["timelapse"]}
+    assert ("rq1", "biped") in strips and ("rq2-homo", "worm") in strips
+    for strip in data["timelapse"]:
+        assert (out / "figures" / strip["file"]).is_file()
+
+
+def test_table1_final_velocity_is_the_median_of_the_logs_last_rows(campaign, report):
+    check_table1(campaign, report[1])
+
+
+def test_p_values_are_scipys_on_the_final_velocities(campaign, report):
+    _, data = report
+    check_p_values(campaign, data)
+    tests = data["figure11"]["comparison"]["worm"]["logged"]["tests"]
+    assert len(tests) == 3  # omega 0.1, 1 and 10, pairwise
+
+
+def test_validation_reruns_agree_with_the_runs_own_validation(campaign, report):
+    check_validation(campaign, report[1], 10)
+
+
+def test_rho_and_eta_are_those_of_the_task_folders(campaign, report):
+    _, data = report
+    for shape in ("biped", "worm"):
+        folders = _finished(campaign, "rq2-homo", shape)
+        ends = [float(_rows(f / "transfer.csv")[-1]["rho"]) for f in folders
+                if f.name.endswith("-reopt")]
+        group = data["figure7"]["curves"][shape]["homogeneous"]
+        assert sorted(group["end"]) == sorted(ends)
+        assert group["median"][-1] == float(np.median(ends))
+        etas = [json.loads((f / "report.json").read_text())["pooled"]["eta_num"]
+                for f in folders if not f.name.endswith("-reopt")]
+        groups = data["figure9"]["eta"][shape]["eta_num"]["groups"]
+        assert sorted(groups["omega 1"]["values"]) == sorted(etas)
+        assert set(groups) == {"omega 0.1", "omega 1", "omega 10"}
+    assert set(data["figure7"]["curves"]["worm"]) == {"homogeneous", "heterogeneous"}
+    assert data["rq3_reassembly"]["curves"]["biped"]["discovered modules"]["tasks"]
+
+
+def test_discovery_rows_are_the_partition_files(campaign, report):
+    _, data = report
+    robots = data["discovery"]["robots"]
+    assert len(robots) == 6
+    for robot in robots:
+        saved = json.loads((campaign / robot["task"] / "partition.json").read_text())
+        assert robot["grid"] == saved["grid"]
+        assert robot["compactness"] == saved["best"]["compactness"]
+
+
+def _rows(path):
+    with open(path, newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def test_unfinished_tasks_are_missing_not_counted(report):
+    out, data = report
+    status = data["status"]["experiments"]
+    assert status["rq1"]["missing"] == [UNFINISHED[0]]
+    assert status["ablation"]["missing"] == [UNFINISHED[1]]
+    row = next(r for r in data["table1"] if (r["experiment"], r["shape"]) == ("rq1", "worm"))
+    assert (row["n"], row["tasks"], row["missing"]) == (3, 4, [UNFINISHED[0]])
+    assert UNFINISHED[0] not in {r["task"] for r in data["validation"]["robots"]}
+    assert UNFINISHED[0] in (out / "index.md").read_text()
+
+
+def test_a_second_report_simulates_nothing_and_says_the_same(campaign, report):
+    out, first = report
+    assert first["cache"]["genomes_simulated"] > 0
+    assert main(["report", str(campaign), "--out", str(out), "--quiet"]) == 0
+    second = json.loads((out / "report.json").read_text())
+    assert second["cache"] == {"genomes_simulated": 0, "strips_drawn": 0}
+    assert {k: v for k, v in second.items() if k != "cache"} == {
+        k: v for k, v in first.items() if k != "cache"}
+    # A damaged cache entry is simulated again, and gives the same numbers.
+    cache = out / "cache" / "validation.json"
+    saved = json.loads(cache.read_text())
+    key = next(iter(saved["entries"]))
+    saved["entries"][key] = [0.0]
+    cache.write_text(json.dumps(saved))
+    assert main(["report", str(campaign), "--out", str(out), "--quiet"]) == 0
+    third = json.loads((out / "report.json").read_text())
+    assert third["cache"] == {"genomes_simulated": 1, "strips_drawn": 0}
+    assert third["validation"] == first["validation"]
+
+
+def test_a_finished_task_that_cannot_be_read_is_shown_as_missing(campaign, tmp_path, capsys):
+    copy = tmp_path / "campaign"
+    shutil.copytree(campaign, copy)
+    (copy / "rq1" / "biped-s1" / "log.csv").write_text("not,a,log\n")
+    (copy / "rq2-homo" / "worm-s0+s1-reopt" / "done.json").unlink()
+    out = tmp_path / "report"
+    assert main(["report", str(copy), "--out", str(out), "--no-timelapse", "--quiet"]) == 0
+    data = json.loads((out / "report.json").read_text())
+    assert "rq1/biped-s1" in data["status"]["unreadable"]
+    assert "rq1/biped-s1" in data["status"]["experiments"]["rq1"]["missing"]
+    assert "rq2-homo/worm-s0+s1-reopt" in data["status"]["experiments"]["rq2-homo"]["missing"]
+    row = next(r for r in data["table1"] if (r["experiment"], r["shape"]) == ("rq1", "biped"))
+    assert (row["n"], row["missing"]) == (2, ["rq1/biped-s1"])
+    assert len(data["figure7"]["curves"]["worm"]["homogeneous"]["tasks"]) == 2
+    assert data["timelapse"] == []
+
+
+@pytest.mark.parametrize("damage, field", [
+    (None, "campaign"),
+    ("not json", "campaign"),
+    ('{"format": "somite-campaign", "version": 1, "tasks": [{"id": "a/b", "experiment": "a", '
+     '"kind": "evolve", "path": "../b"}]}', "campaign.tasks.path"),
+    ('{"format": "somite-campaign", "version": 1, "tasks": [{"id": "a/b", "experiment": "a", '
+     '"kind": "bake", "path": "a/b"}]}', "campaign.tasks.kind"),
+    ('{"format": "somite-campaign", "version": 2, "tasks": []}', "campaign.version"),
+])
+def test_bad_campaign_is_one_line_and_exit_2(tmp_path, capsys, damage, field):
+    if damage is not None:
+        (tmp_path / "campaign.json").write_text(damage)
+    assert main(["report", str(tmp_path), "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"error: {field}=" in err
+    assert not (tmp_path / "r").exists()
+
+
+try:
+    import somite.commands.campaign  # noqa: F401 - it comes with `somite campaign run`
+except ImportError:
+    CAMPAIGN_RUN = False
+else:
+    CAMPAIGN_RUN = True
+
+
+@pytest.mark.skipif(not CAMPAIGN_RUN, reason="needs `somite campaign run` (branch issue-11-run)")
+def test_campaign_run_smoke_then_report(tmp_path):
+    campaign = tmp_path / "smoke"
+    run = subprocess.run([sys.executable, "-m", "somite.cli", "campaign", "run", "smoke",
+                          "--out", str(campaign), "--workers", "1", "--threads", "1",
+                          "--quiet"], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    out = tmp_path / "report"
+    assert main(["report", str(campaign), "--out", str(out), "--no-timelapse", "--quiet"]) == 0
+    data = json.loads((out / "report.json").read_text())
+    assert all(s["done"] == s["tasks"] > 0 and not s["missing"]
+               for s in data["status"]["experiments"].values())
+    check_sections(out, data)
+    check_table1(campaign, data)
+    check_p_values(campaign, data)
+    check_validation(campaign, data, 10)
+    for figure in ("figure7", "figure8", "rq3_reassembly"):
+        assert set(data[figure]["curves"]) == {"biped", "worm"}

@@ -9,7 +9,8 @@ Read statically from the source, so an import inside a function counts like one 
   imports nothing of the simulator;
 - ``tasks`` is where sim and brain meet; ``evolution`` and ``modules`` sit above it and do not
   import each other (a partition describes a body, so both take it from ``sim.partition``);
-  ``experiments``, ``analysis`` and ``viz`` above those; ``commands`` and ``cli`` on top;
+  ``experiments``, ``analysis`` and ``viz`` above those; ``campaigns`` (experiments on Dask)
+  above ``experiments``; ``commands`` and ``cli`` on top;
 - plotting and imaging libraries only in ``viz``; the progress bar only in the command line.
 - ``report`` (a campaign's report) reads every part below the command line, which imports it.
 """
@@ -25,7 +26,7 @@ SOURCE = Path(__file__).resolve().parents[1] / "src" / "somite"
 
 FOUNDATION = {"errors", "limits", "_io", "_jit", "_math", "types"}
 BELOW_TOP = {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis", "viz",
-             "bench"}
+             "bench", "campaigns"}
 ALLOWED = {
     "sim": set(),
     "brain": {"sim.body"},
@@ -37,6 +38,7 @@ ALLOWED = {
     "viz": {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis"},
     "report": BELOW_TOP | {"__init__"},
     "bench": {"sim", "brain", "tasks"},
+    "campaigns": {"sim", "brain", "tasks", "evolution", "modules", "experiments"},
     "__init__": BELOW_TOP,
     "commands": BELOW_TOP | {"commands", "__init__", "report"},
     "cli": {"commands"},
@@ -51,6 +53,8 @@ EXTERNAL = {
     "PIL": {"viz"},
     "imageio": {"viz"},
     "rich": {"commands", "cli"},
+    "distributed": {"campaigns"},
+    "dask": {"campaigns"},
 }
 """Third-party package -> the parts of somite that may import it."""
 

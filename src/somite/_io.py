@@ -176,3 +176,15 @@ def parse_json(text: str, field: str, where: str):
 def read_json(path: str | os.PathLike, field: str):
     """:func:`read_text` then :func:`parse_json`."""
     return parse_json(read_text(path, field), field, str(path))
+
+
+def read_toml(path: str | os.PathLike, field: str) -> dict:
+    """:func:`read_text` then TOML, or a one-line error naming ``field``."""
+    import tomllib
+
+    from .errors import bad
+
+    try:
+        return tomllib.loads(read_text(path, field))
+    except tomllib.TOMLDecodeError as error:
+        raise bad(field, str(path), f"not valid TOML ({error})") from None

@@ -3,12 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import csv
-import io
 
-from .._io import check_output_folder, make_folder, write_atomic
-from ..brain.genome import Genome
-from ..modules.discovery import partition_around, rank_candidates, score
+from .._io import check_output_folder
+from ..experiments.discovery import format_compactness, write_discovery
 from .common import add_options, load_genome
 
 HELP = "Find the most compact module of a genome (eq. 5) and partition its body around it."
@@ -24,50 +21,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     out = check_output_folder(args.out)
     genome = load_genome(args.genome)
-    ranked = rank_candidates(genome, args.b_min, args.b_max)
-    best = ranked[0]
-    partition = partition_around(genome.body.shape, best.voxels)
-    make_folder(out)
-    partition.save(
-        out / "partition.json",
-        genome=str(args.genome),
-        b_min=args.b_min,
-        b_max=args.b_max,
-        n_candidates=len(ranked),
-        best={"label": "A", **best.to_dict()},
-        scores={
-            label: _module_score(genome, partition, label) for label in partition.modules
-        },
-    )
-    write_atomic(out / "candidates.csv", _csv(ranked))
-    print(f"most compact module (c = {_fmt(best.compactness)}): {list(best.voxels)}")
+    best, partition, ranked = write_discovery(out, genome, str(args.genome), args.b_min,
+                                              args.b_max)
+    print(f"most compact module (c = {format_compactness(best.compactness)}): {list(best.voxels)}")
     print(f"partition {partition.grid_string()} ({len(partition.modules)} modules)")
     print(f"-> {out / 'partition.json'}, {out / 'candidates.csv'} ({len(ranked)} candidates)")
     return 0
-
-
-def _module_score(genome: Genome, partition, label: str) -> dict:
-    """inside, crossing and compactness of one module of the partition."""
-    shape = genome.body.shape
-    indices = tuple(shape.index(*v) for v in partition.voxels_of(label))
-    [candidate] = score(genome, (indices,))
-    return {k: v for k, v in candidate.to_dict().items() if k != "voxels"}
-
-
-def _csv(ranked) -> str:
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(("rank", "size", "voxels", "inside", "crossing", "compactness"))
-    for rank, candidate in enumerate(ranked, start=1):
-        voxels = " ".join(f"{x},{y}" for x, y in candidate.voxels)
-        writer.writerow((
-            rank, candidate.size, voxels, repr(candidate.inside), repr(candidate.crossing),
-            _fmt(candidate.compactness, full=True),
-        ))
-    return buffer.getvalue()
-
-
-def _fmt(value: float, full: bool = False) -> str:
-    if value != value:  # NaN: the set touches no edge
-        return "nan"
-    return repr(value) if full else f"{value:.3f}"

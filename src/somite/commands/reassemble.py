@@ -9,15 +9,11 @@ heterogeneous reassembly (donors of other shapes) is asked for. This module pars
 from __future__ import annotations
 
 import argparse
-import csv
-import io
-import json
 from pathlib import Path
 
-from .._io import check_output_folder, make_folder, write_atomic
+from .._io import check_output_folder
 from ..errors import bad
-from ..modules.reassembly import Take, paper_takes, reassemble, receiver_for
-from ..sim.partition import Partition
+from ..experiments.reassembly import write_reassembly
 from .common import (
     add_genome,
     add_options,
@@ -27,28 +23,6 @@ from .common import (
 )
 
 HELP = "Reassemble a robot from modules of two donor genomes; report eta, v_x and rho."
-
-CSV_COLUMNS = (
-    "module",
-    "donor",
-    "donor_module",
-    "offset_x",
-    "offset_y",
-    "edges_touching",
-    "edges_cut",
-    "eta_num",
-    "eta_weight",
-    "voxels_matched",
-    "voxels_dropped",
-    "voxels_empty",
-    "nodes_kept",
-    "nodes_dropped",
-    "edges_kept",
-    "edges_dropped",
-    "hidden_pruned",
-    "nodes_added",
-)
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_genome(parser, "donor1", role="donor 1")
@@ -89,27 +63,12 @@ def run(args: argparse.Namespace) -> int:
         check_count(args.validation)
     config = simulation_config(args)
     genomes = (load_genome(args.donor1), load_genome(args.donor2))
-    donors = tuple(zip(genomes, _donor_partitions(args.partition, genomes)))
-    body, receiver = receiver_for(
-        donors, args.receiver_shape, args.receiver_sensors, args.receiver_partition
+    result, report = write_reassembly(
+        out, genomes, (args.donor1, args.donor2), args.partition, config,
+        receiver_shape=args.receiver_shape, receiver_sensors=args.receiver_sensors,
+        receiver_partition=args.receiver_partition, take=args.take,
+        validation=args.validation, seed=args.seed, preset=args.preset, draw=args.draw,
     )
-    if args.take is None:
-        takes = paper_takes(receiver, donors)
-    else:
-        takes = _takes(args.take, donors, receiver)
-    result = reassemble(body, receiver, takes, donors)
-    report = result.to_dict()
-    for entry, path in zip(report["donors"], (args.donor1, args.donor2)):
-        entry["file"] = str(path)
-    report["file"] = "reassembled.json"
-    if args.validation:
-        report["validation"] = _validation(args, result.genome, genomes, config)
-    if args.draw:
-        report["draw"] = "reassembled.png"
-    make_folder(out)
-    result.genome.save(out / "reassembled.json")
-    write_atomic(out / "report.json", json.dumps(report, indent=1, allow_nan=False) + "\n")
-    write_atomic(out / "report.csv", _csv(report["modules"]))
     if args.draw:
         from ..viz.brain import draw_brain
 
@@ -120,69 +79,8 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _validation(args, reassembled, donors, config) -> dict:
-    """v_x of the new robot and both donors on the validation terrains, and rho."""
-    from ..modules.transfer import transferability
-    from ..tasks.validation import validation_terrains
-
-    terrains = validation_terrains(args.validation)
-    measured = transferability(reassembled, *donors, terrains, config, args.seed)
-    return {
-        "n_terrains": args.validation, "duration": config.duration, "preset": args.preset,
-        "seed": args.seed, **measured.to_dict(),
-    }
-
-
 def _check_out(text: str) -> Path:
     return check_output_folder(text)
-
-
-def _donor_partitions(specs, donors) -> tuple[Partition, Partition]:
-    specs = specs or ["paper"]
-    if len(specs) > 2:
-        raise bad("partition", specs, "give one partition for both donors, or one per donor")
-    if len(specs) == 1:
-        specs = specs * 2
-    return tuple(Partition.parse(s, d.body.shape) for s, d in zip(specs, donors))
-
-
-def _takes(text: str, donors, receiver: Partition) -> dict[str, Take]:
-    """``--take``: receiver module -> Take of ``DONOR1:MODULE`` or ``DONOR2:MODULE``."""
-    takes: dict[str, Take] = {}
-    for item in str(text).split(","):
-        item = item.strip()
-        if "=" not in item or ":" not in item.split("=", 1)[1]:
-            raise bad("take", item, "expected RECEIVER_MODULE=DONOR1:MODULE or =DONOR2:MODULE")
-        label, source = (part.strip() for part in item.split("=", 1))
-        donor, module = (part.strip() for part in source.split(":", 1))
-        number = {"donor1": 1, "1": 1, "donor2": 2, "2": 2}.get(donor.lower())
-        if number is None:
-            raise bad("take", item, "the donor is DONOR1 or DONOR2")
-        if label not in receiver.modules:
-            raise bad(
-                "take", item, f"{label!r} is not a receiver module; they are {receiver.modules}"
-            )
-        if label in takes:
-            raise bad("take", item, f"receiver module {label!r} is given twice")
-        genome, partition = donors[number - 1]
-        if module not in partition.modules:
-            raise bad("take", item, f"donor {number} has modules {partition.modules}")
-        takes[label] = Take(genome, partition, module)
-    missing = [m for m in receiver.modules if m not in takes]
-    if missing:
-        raise bad("take", text, f"receiver modules without a donor module: {missing}")
-    return takes
-
-
-def _csv(rows: list[dict]) -> str:
-    buffer = io.StringIO()
-    writer = csv.DictWriter(
-        buffer, fieldnames=CSV_COLUMNS, extrasaction="ignore", lineterminator="\n"
-    )
-    writer.writeheader()
-    for row in rows:
-        writer.writerow({k: ("" if row[k] is None else row[k]) for k in CSV_COLUMNS})
-    return buffer.getvalue()
 
 
 def _drawer():

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import math
 
-from ..experiments.reoptimize import donor_velocities, transfer_curve
-from ..experiments.runner import RunDirectory, evolve
+from ..experiments.reoptimize import reoptimize
+from ..experiments.runner import RunDirectory
 from ..tasks.backends import check_backend
 from ..tasks.validation import check_count
 from ..tasks.velocity import mean_velocity
@@ -33,14 +33,13 @@ def run(args: argparse.Namespace) -> int:
     shape = genome.body.shape.grid_string()
     config = configuration(args, shape=shape, start=str(args.genome))
     backend = check_backend(args.backend)
-    sim = config.task().sim
-    # Locked until transfer.csv is written: it is part of the run.
+    # Locked before the progress bar starts, so that a refusal is the only line printed.
     with RunDirectory(args.out).locked() as run_dir:
         with progress_bar(config.generations, args.quiet) as report:
-            ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report,
-                        start=genome, backend=backend)
-        velocities = donor_velocities(donors, sim, args.validation) if donors else []
-        rows = transfer_curve(args.out, velocities, sim, args.validation)
+            ea, rows, velocities = reoptimize(config, run_dir, genome, donors,
+                                              args.validation, resume=args.resume,
+                                              force=args.force, progress=report,
+                                              backend=backend)
     summarise(ea, RunDirectory(args.out), args.quiet)
     donors_mean = mean_velocity(velocities) if donors else math.nan
     if not args.quiet and donors:

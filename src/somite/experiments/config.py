@@ -9,11 +9,10 @@ the key.
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 
-from .._io import read_text
+from .._io import read_toml
 from ..errors import bad
 from ..evolution.config import GAConfig, check_types
 from ..evolution.operators import OperatorConfig
@@ -127,11 +126,7 @@ def option_names() -> set[str]:
 
 def load_toml(path: str | Path) -> dict:
     """The options of a TOML file, checked for unknown keys (types are checked on build)."""
-    path = Path(path)
-    try:
-        data = tomllib.loads(read_text(path, "config"))
-    except tomllib.TOMLDecodeError as error:
-        raise bad("config", str(path), f"not valid TOML ({error})") from None
+    data = read_toml(path, "config")
     known = option_names()
     for key in data:
         if key not in known:

@@ -20,7 +20,8 @@ from ..brain.genome import Genome
 from ..sim.config import SimConfig
 from ..tasks.validation import evaluate, validation_terrains
 from ..tasks.velocity import mean_velocity, rho
-from .runner import RunDirectory
+from .config import RunConfig
+from .runner import Progress, RunDirectory, evolve
 
 TRANSFER_COLUMNS = ("generation", "training_velocity", "validation_velocity", "rho")
 
@@ -58,3 +59,23 @@ def transfer_curve(run: str | Path, donors: Sequence[float], config: SimConfig,
     run_dir.record("transfer.csv")
     write_atomic(run_dir.file("transfer.csv"), out.getvalue())
     return rows
+
+
+def reoptimize(config: RunConfig, out: str | Path | RunDirectory, start: Genome,
+               donors: Sequence[Genome] = (), n_terrains: int = 10, resume: bool = False,
+               force: bool = False, progress: Progress | None = None, backend: str = "cpu"):
+    """Re-evolve ``start`` into the run directory ``out`` (:func:`~.runner.evolve`), then write
+    ``transfer.csv`` against the ``donors``. The directory stays locked until that is written,
+    as it is part of the run (``out`` may be a :class:`RunDirectory` its caller has locked).
+    ``backend`` is where the re-optimisation's episodes run (``cpu``, ``cuda``).
+    Returns (the EA, the transfer rows, the donors' mean velocities)."""
+    if not (isinstance(out, RunDirectory) and out.lock.held):
+        with RunDirectory(out.path if isinstance(out, RunDirectory) else out).locked() as run_dir:
+            return reoptimize(config, run_dir, start, donors, n_terrains, resume, force,
+                              progress, backend)
+    sim = config.task().sim
+    ea = evolve(config, out, resume=resume, force=force, progress=progress, start=start,
+                backend=backend)
+    velocities = donor_velocities(donors, sim, n_terrains) if donors else []
+    rows = transfer_curve(out.path, velocities, sim, n_terrains)
+    return ea, rows, velocities

@@ -1,0 +1,163 @@
+"""Running a campaign's tasks on Dask distributed: a LocalCluster, or an existing scheduler.
+
+Every unfinished task is one Dask task (:func:`~.work.run_task`), submitted with the futures
+of the tasks it needs, so that it starts when they are finished. A task whose worker dies is
+rescheduled by Dask, and one that fails is retried (``retries``): either way it runs again and
+resumes from what is on disk. Tasks carry the campaign directory's absolute path, so workers on
+other machines need the same path to it (a shared file system).
+
+Sizing: a task is single-process Numba code whose Python between kernel calls (6.6% of a
+generation) leaves threads idle, so by default each core gets a worker process of its own with
+one Numba thread (``workers = cores // threads``); campaigns have far more runs than cores until
+their last few tasks.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+import time
+import uuid
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import bad
+from .directory import finished
+from .work import run_task
+
+RETRIES = 3
+
+
+@dataclass
+class Outcome:
+    """What a call of :func:`execute` did."""
+
+    ran: list[str] = field(default_factory=list)
+    failed: dict[str, str] = field(default_factory=dict)
+    skipped: list[str] = field(default_factory=list)
+    wall_s: float = 0.0
+    dashboard: str = ""
+
+
+def cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def check_scheduler(address: str | None) -> None:
+    """A scheduler address such as ``tcp://HOST:PORT``, or a one-line error."""
+    if address is not None and not re.fullmatch(r"([a-z]+://)?[^\s:/]+:\d+", address):
+        raise bad("scheduler", address, "expected an address such as tcp://HOST:8786")
+
+
+def sizing(workers: int | None, threads: int | None) -> tuple[int, int]:
+    """(worker processes, Numba threads per task) for a LocalCluster on this machine."""
+    n = cores()
+    for name, value in (("workers", workers), ("threads", threads)):
+        if value is not None and value < 1:
+            raise bad(name, value, "must be at least 1")
+    if threads is None:
+        threads = max(1, n // workers) if workers else 1
+    if workers is None:
+        workers = max(1, n // threads)
+    return workers, threads
+
+
+def _client(scheduler: str | None, workers: int):
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="30s"), None
+        except (OSError, TimeoutError, ValueError) as error:
+            raise bad("scheduler", scheduler, f"cannot connect ({error})") from None
+    with warnings.catch_warnings():
+        # "Port 8787 is already in use" (another cluster's dashboard): this one takes another
+        # port, and the progress view shows which.
+        warnings.filterwarnings("ignore", message="Port .* is already in use")
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def dashboard_link(client, local: bool) -> str:
+    """The address of Dask's dashboard, or "" (a local one needs bokeh: without it the
+    scheduler serves no status pages)."""
+    import importlib.util
+
+    if local and importlib.util.find_spec("bokeh") is None:
+        return ""
+    try:
+        info = client.scheduler_info()
+        if "dashboard" not in info.get("services", {}):
+            return ""
+        return client.dashboard_link
+    except Exception:  # noqa: BLE001 - a missing dashboard must not stop a campaign
+        return ""
+
+
+def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
+            workers: int | None = None, threads: int | None = None, retries: int = RETRIES,
+            watch: Callable[[Outcome], None] | None = None) -> Outcome:
+    """Run every unfinished task of the campaign ``doc`` in ``directory``; ``watch`` is called
+    about twice a second while it goes on (for a progress view)."""
+    directory = Path(directory).resolve()
+    tasks = [t for t in doc["tasks"] if not finished(directory, t)]
+    outcome = Outcome()
+    if not tasks:
+        return outcome
+    workers, threads = sizing(workers, threads)
+    start = time.perf_counter()
+    client, cluster = _client(scheduler, workers)
+    futures = {}
+    try:
+        outcome.dashboard = dashboard_link(client, cluster is not None)
+        token = uuid.uuid4().hex[:8]  # a scheduler may hold another campaign's tasks
+        for rank, task in enumerate(tasks):
+            needs = [futures[n] for n in task["needs"] if n in futures]
+            # Earlier tasks first (Dask's own order is not the campaign's): the runs of the
+            # first experiments finish first, and a killed campaign leaves few partial ones.
+            futures[task["id"]] = client.submit(
+                run_task, str(directory), task, threads, *needs, key=f"{task['id']}@{token}",
+                pure=False, retries=retries, priority=len(tasks) - rank)
+        needs = {t["id"]: t["needs"] for t in tasks}
+        pending = dict(futures)
+        while pending:
+            for task_id, future in list(pending.items()):
+                if not future.done():
+                    continue
+                del pending[task_id]
+                if future.status == "finished":
+                    outcome.ran.append(task_id)
+                elif any(n in outcome.failed or n in outcome.skipped for n in needs[task_id]):
+                    outcome.skipped.append(task_id)
+                else:
+                    outcome.failed[task_id] = _reason(future)
+            outcome.wall_s = time.perf_counter() - start
+            if watch is not None:
+                watch(outcome)
+            if pending:
+                time.sleep(0.5)
+    except BaseException:
+        client.cancel(list(futures.values()))
+        raise
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    outcome.wall_s = time.perf_counter() - start
+    return outcome
+
+
+def _reason(future) -> str:
+    try:
+        error = future.exception()
+    except Exception as failure:  # noqa: BLE001 - cancelled, lost: say so
+        error = failure
+    text = str(error).strip().splitlines()
+    return f"{type(error).__name__}: {text[0] if text else ''}"

@@ -1,0 +1,52 @@
+"""How far a campaign has got, read from its directory (the truth, whoever runs the tasks):
+for the live view of ``campaign run`` and the table of ``campaign status``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .directory import state
+from .tasks import estimate
+
+
+def states(directory: Path, doc: dict) -> list[dict]:
+    """:func:`.directory.state` of every task, in ``campaign.json``'s order."""
+    return [state(directory, t) for t in doc["tasks"]]
+
+
+@dataclass
+class Snapshot:
+    """Counts of tasks by state, generations reached of all, robot-control-steps done of all
+    (from the tasks' estimates: a running run counts the fraction of its generations it has
+    logged), and the running tasks."""
+
+    counts: dict[str, int]
+    generations: tuple[int, int]
+    steps: tuple[float, float]
+    running: list[dict] = field(default_factory=list)
+
+    @property
+    def fraction(self) -> float:
+        return self.steps[0] / max(self.steps[1], 1.0)
+
+
+def snapshot(doc: dict, infos: list[dict]) -> Snapshot:
+    counts = {"done": 0, "running": 0, "partial": 0, "queued": 0}
+    reached = generations = 0
+    done = total = 0.0
+    for task, info in zip(doc["tasks"], infos):
+        counts[info["state"]] += 1
+        steps = estimate(task)
+        total += steps
+        if info["generations"] is not None:
+            generations += info["generations"]
+        if info["state"] == "done":
+            done += steps
+            reached += info["generations"] or 0
+        elif info["generation"] is not None and info["generations"]:
+            part = min(info["generation"], info["generations"])
+            reached += part
+            done += steps * part / info["generations"]
+    running = [i for i in infos if i["state"] == "running"]
+    return Snapshot(counts, (reached, generations), (done, total), running)

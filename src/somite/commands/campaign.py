@@ -1,0 +1,230 @@
+"""``somite campaign``: run the paper's experiments (or a campaign file) on Dask, resumably."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from ..errors import bad
+
+HELP = ("Run a campaign of experiments (built-in: paper, quick, smoke; or a TOML file) on Dask; "
+        "list the built-ins; show a campaign directory's tasks.")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="action", required=True, parser_class=type(parser))
+    run = sub.add_parser("run", help="run (or --resume) a campaign into a directory")
+    run.add_argument("campaign", nargs="?",
+                     help="a built-in campaign (paper, quick, smoke) or a campaign TOML file; "
+                     "with --resume it may be left out")
+    run.add_argument("--out", required=True, help="campaign directory")
+    run.add_argument("--resume", action="store_true",
+                     help="continue the campaign in --out: finished tasks are skipped, "
+                     "unfinished runs resume from their checkpoints")
+    run.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                     help="an existing Dask scheduler (default: a local cluster on this "
+                     "machine); its workers need the campaign directory at the same path")
+    run.add_argument("--workers", type=int,
+                     help="local worker processes (default: cores / threads)")
+    run.add_argument("--threads", type=int,
+                     help="Numba threads per task (default 1, or cores / --workers)")
+    run.add_argument("--quiet", action="store_true", help="no progress view")
+    sub.add_parser("list", help="the built-in campaigns, their tasks and robot-control-steps")
+    status = sub.add_parser("status", help="the table of a campaign directory's tasks")
+    status.add_argument("directory", help="campaign directory")
+
+
+def run(args: argparse.Namespace) -> int:
+    return {"run": _run, "list": _list, "status": _status}[args.action](args)
+
+
+def load_campaign(name: str):
+    """A built-in campaign by name, or a campaign TOML file."""
+    from ..campaigns.builtin import BUDGETS, builtin
+    from ..campaigns.spec import load
+
+    if name in BUDGETS:
+        return builtin(name)
+    if not name.endswith(".toml") and not Path(name).is_file():
+        raise bad("campaign", name, f"no such built-in campaign ({', '.join(BUDGETS)}) "
+                  "or campaign file")
+    return load(name)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from ..campaigns import directory as campaign_dir
+    from ..campaigns.executor import check_scheduler, execute, sizing
+    from ..campaigns.tasks import expand
+    from ..experiments.lock import RunLock
+
+    # Bad sizes and addresses are refused before anything is written.
+    sizing(args.workers, args.threads)
+    check_scheduler(args.scheduler)
+    if args.campaign is None and not args.resume:
+        raise bad("campaign", None, "name a campaign (paper, quick, smoke or a .toml file)")
+    doc = None
+    if args.campaign is not None:
+        campaign = load_campaign(args.campaign)
+        doc = campaign_dir.document(campaign, expand(campaign))
+    out = Path(args.out)
+    # Refused before its directory is created or locked; checked again once locked.
+    campaign_dir.prepare(out, doc, args.resume, write=False)
+    out.mkdir(parents=True, exist_ok=True)
+    with RunLock(out):
+        doc = campaign_dir.prepare(out, doc, args.resume)
+        with LiveView(out, doc, args.quiet) as view:
+            outcome = execute(out, doc, args.scheduler, args.workers, args.threads,
+                              watch=view.update)
+    for task_id, reason in outcome.failed.items():
+        sys.stderr.write(f"somite campaign: task {task_id} failed: {reason}\n")
+    if outcome.skipped:
+        sys.stderr.write(f"somite campaign: {len(outcome.skipped)} tasks not run, as a task "
+                         "they need failed\n")
+    if not args.quiet:
+        ran = set(outcome.ran)
+        steps = sum((campaign_dir.state(out, t)["done"] or {}).get("robot_control_steps", 0)
+                    for t in doc["tasks"] if t["id"] in ran)
+        rate = f" ({steps / outcome.wall_s:,.0f} robot-control-steps/s)" if steps else ""
+        print(f"{len(outcome.ran)} tasks run in {outcome.wall_s:.1f} s{rate}; "
+              f"`somite campaign status {out}` lists them")
+    return 1 if outcome.failed or outcome.skipped else 0
+
+
+def _list(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from ..campaigns.builtin import BUDGETS, builtin
+    from ..campaigns.tasks import estimate, expand
+
+    grid = Table(title="built-in campaigns")
+    for name in ("campaign", "tasks", "evolve", "reassemble", "reoptimize", "discover",
+                 "robot-control-steps"):
+        grid.add_column(name, justify="left" if name == "campaign" else "right")
+    for name in BUDGETS:
+        tasks = expand(builtin(name))
+        kinds = [sum(t["kind"] == k for t in tasks)
+                 for k in ("evolve", "reassemble", "reoptimize", "discover")]
+        grid.add_row(name, str(len(tasks)), *map(str, kinds),
+                     f"{sum(estimate(t) for t in tasks):.2e}")
+    Console().print(grid)
+    print("time: robot-control-steps / `somite bench`'s robot_control_steps_per_second")
+    return 0
+
+
+def _status(args: argparse.Namespace) -> int:
+    from rich.console import Console
+
+    from ..campaigns import directory as campaign_dir
+    from ..campaigns.progress import snapshot, states
+
+    directory = Path(args.directory)
+    doc = campaign_dir.read(directory)
+    infos = states(directory, doc)
+    Console().print(_table(directory, doc, infos))
+    now = snapshot(doc, infos)
+    print(", ".join(f"{n} {k}" for k, n in now.counts.items()) +
+          f"; {now.fraction:.1%} of {now.steps[1]:.3g} robot-control-steps")
+    return 0
+
+
+def _duration(seconds: float) -> str:
+    seconds = int(seconds)
+    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
+
+
+def _fmt(value) -> str:
+    return "-" if value is None else f"{value:.3f}"
+
+
+def _table(directory: Path, doc: dict, infos: list[dict]):
+    """The table of every task: id, kind, state, generation/total, the logged best v_x (a
+    lucky draw of terrains) and the best's v_x on the validation terrains where measured."""
+    from rich.table import Table
+
+    grid = Table(title=f"campaign {doc.get('name')} in {directory} (v_x in m/s)")
+    for name in ("task", "kind", "state", "generation", "best v_x", "validation v_x"):
+        grid.add_column(name, justify="left" if name in ("task", "kind", "state") else "right",
+                        no_wrap=name == "task")
+    for info in infos:
+        generation = "-"
+        if info["generations"] is not None:
+            reached = "-" if info["generation"] is None else info["generation"]
+            generation = f"{reached}/{info['generations']}"
+        grid.add_row(info["id"], info["kind"], info["state"], generation, _fmt(info["best"]),
+                     _fmt(info["validation"]))
+    return grid
+
+
+_SHOWN = 12
+"""Running tasks listed in the live view (a cluster may run hundreds)."""
+
+
+class LiveView:
+    """The progress of a running campaign: tasks done / running / queued, generations, ETA,
+    the running runs and the Dask dashboard's address. Nothing at all when ``quiet``."""
+
+    def __init__(self, directory: Path, doc: dict, quiet: bool) -> None:
+        self.directory, self.doc, self.quiet = directory, doc, quiet
+        self.live = None
+        self.started = time.monotonic()
+        self.at_start = None
+        self.last = 0.0
+        self.dashboard = ""
+
+    def __enter__(self) -> LiveView:
+        if not self.quiet:
+            from rich.live import Live
+
+            self.live = Live(self._render(), refresh_per_second=2)
+            self.live.start()
+        return self
+
+    def update(self, outcome) -> None:
+        if self.live is None or time.monotonic() - self.last < 1.0:
+            return
+        self.last = time.monotonic()
+        self.dashboard = outcome.dashboard
+        self.live.update(self._render())
+
+    def _render(self):
+        from rich.console import Group
+        from rich.text import Text
+
+        from ..campaigns.progress import snapshot, states
+
+        now = snapshot(self.doc, states(self.directory, self.doc))
+        done, total = now.steps
+        if self.at_start is None:
+            self.at_start = done
+        elapsed = time.monotonic() - self.started
+        rate = (done - self.at_start) / elapsed if elapsed > 0 else 0.0
+        eta = _duration((total - done) / rate) if rate > 0 else "-"
+        counts = now.counts
+        lines = [
+            Text(f"campaign {self.doc.get('name')} -> {self.directory}", style="bold"),
+            Text(f"tasks: {counts['done']} done, {counts['running']} running, "
+                 f"{counts['queued'] + counts['partial']} queued (of {sum(counts.values())})   "
+                 f"generations {now.generations[0]}/{now.generations[1]}   "
+                 f"{now.fraction:.1%} of {total:.3g} robot-control-steps   "
+                 f"elapsed {_duration(elapsed)}  ETA {eta}"),
+            Text("dashboard: " + (self.dashboard or "none (Dask's needs bokeh: pip install "
+                                  "'somite[dashboard]')")),
+        ]
+        for info in now.running[:_SHOWN]:
+            generation = "" if info["generation"] is None else (
+                f"  generation {info['generation']}/{info['generations']}"
+                f"  best v_x {_fmt(info['best'])}")
+            lines.append(Text(f"  {info['id']}{generation}"))
+        if len(now.running) > _SHOWN:
+            lines.append(Text(f"  ... and {len(now.running) - _SHOWN} more running"))
+        return Group(*lines)
+
+    def __exit__(self, *exc) -> None:
+        if self.live is not None:
+            self.live.update(self._render())
+            self.live.stop()
+            if not self.live.console.is_terminal:
+                self.live.console.line()

@@ -1,0 +1,63 @@
+"""A module discovery into a folder: what ``somite discover`` writes, for the command and
+campaigns: ``partition.json`` (the body partitioned around its most compact module, paper eq. 5,
+with every module's score) and ``candidates.csv`` (every candidate, ranked)."""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+from .._io import make_folder, write_atomic
+from ..brain.genome import Genome
+from ..modules.discovery import partition_around, rank_candidates, score
+
+
+def write_discovery(out: Path, genome: Genome, name: str, b_min: int = 2, b_max: int = 5):
+    """Rank the candidate modules of ``genome`` (named ``name`` in the file), partition its
+    body around the most compact one and write ``partition.json`` and ``candidates.csv`` into
+    ``out``; returns (best candidate, partition, ranked candidates)."""
+    ranked = rank_candidates(genome, b_min, b_max)
+    best = ranked[0]
+    partition = partition_around(genome.body.shape, best.voxels)
+    make_folder(out)
+    partition.save(
+        out / "partition.json",
+        genome=name,
+        b_min=b_min,
+        b_max=b_max,
+        n_candidates=len(ranked),
+        best={"label": "A", **best.to_dict()},
+        scores={
+            label: _module_score(genome, partition, label) for label in partition.modules
+        },
+    )
+    write_atomic(out / "candidates.csv", _csv(ranked))
+    return best, partition, ranked
+
+
+def _module_score(genome: Genome, partition, label: str) -> dict:
+    """inside, crossing and compactness of one module of the partition."""
+    shape = genome.body.shape
+    indices = tuple(shape.index(*v) for v in partition.voxels_of(label))
+    [candidate] = score(genome, (indices,))
+    return {k: v for k, v in candidate.to_dict().items() if k != "voxels"}
+
+
+def _csv(ranked) -> str:
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(("rank", "size", "voxels", "inside", "crossing", "compactness"))
+    for rank, candidate in enumerate(ranked, start=1):
+        voxels = " ".join(f"{x},{y}" for x, y in candidate.voxels)
+        writer.writerow((
+            rank, candidate.size, voxels, repr(candidate.inside), repr(candidate.crossing),
+            format_compactness(candidate.compactness, full=True),
+        ))
+    return buffer.getvalue()
+
+
+def format_compactness(value: float, full: bool = False) -> str:
+    if value != value:  # NaN: the set touches no edge
+        return "nan"
+    return repr(value) if full else f"{value:.3f}"

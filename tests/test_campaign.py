@@ -1,0 +1,354 @@
+"""Campaigns: the TOML spec, the built-ins' tasks, and running them on Dask (a LocalCluster,
+a scheduler and workers started by hand), killed and resumed, to the same logs."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from somite.campaigns.builtin import BUDGETS, builtin
+from somite.campaigns.spec import parse
+from somite.campaigns.tasks import expand
+from somite.cli import main
+from somite.experiments.config import resolve
+from somite.experiments.runner import RUN_FILES
+
+SOMITE = [sys.executable, "-m", "somite.cli"]
+EVOLVE_FILES = {"config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json",
+                "manifest.json"}
+OUTPUTS = {
+    "evolve": EVOLVE_FILES,
+    "reoptimize": EVOLVE_FILES | {"transfer.csv"},
+    "reassemble": {"reassembled.json", "report.json", "report.csv"},
+    "discover": {"partition.json", "candidates.csv"},
+}
+
+
+# -- the campaign file ------------------------------------------------------------------------
+
+def _one_line_error(capsys, argv) -> str:
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
+    return err
+
+
+@pytest.mark.parametrize("text, field", [
+    ("[experiments.a]\nkind = 'evolve'\nshapes = ['worm']\nseeds = 0\n", "experiments.a.seeds"),
+    ("[experiments.a]\nkind = 'grow'\n", "experiments.a.kind"),
+    ("[experiments.a]\nkind = 'evolve'\nshapes = ['worm']\nseeds = 2\nfoo = 1\n",
+     "experiments.a.foo"),
+    ("[experiments.a]\nkind = 'evolve'\nshapes = ['worm']\nseeds = 2\n"
+     "options = { population = 1 }\n", "experiments.a.population"),
+    ("[experiments.a]\nkind = 'evolve'\nshapes = ['blob']\nseeds = 2\n", "experiments.a.shape"),
+    ("[experiments.b]\nkind = 'reassemble'\ndonors = 'a'\n", "experiments.b.donors"),
+    ("[experiments.a]\nkind = 'discover'\ngenomes = 'a'\n", "experiments.a.genomes"),
+    ("[experiments.a]\nkind = 'evolve'\nshapes = ['worm']\nseeds = [3]\n"
+     "[experiments.b]\nkind = 'reassemble'\ndonors = 'a'\n", "experiments.b.pairing"),
+    ("validation = 0\n[experiments.a]\nkind = 'evolve'\nshapes = ['worm']\nseeds = 1\n",
+     "validation"),
+    ("[experiments.a\n", "campaign"),
+    ("[experiments.a]\nkind = 'evolve'\nshapes = ['biped']\nseeds = 2\n"
+     "[experiments.b]\nkind = 'reassemble'\ndonors = 'a'\npartition = 'worm-halves'\n",
+     "experiments.b.partition"),
+    ("[experiments.a]\nkind = 'evolve'\nshapes = ['worm']\nseeds = 2\n"
+     "[experiments.b]\nkind = 'reassemble'\ndonors = 'a'\nreoptimize = { foo = 1 }\n",
+     "experiments.b.reoptimize.foo"),
+])
+def test_bad_campaign_files_are_one_line_errors(tmp_path, capsys, text, field):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    err = _one_line_error(capsys, ["campaign", "run", str(path), "--out", str(tmp_path / "o")])
+    assert f"error: {field}=" in err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("args, field", [
+    (["run", "smoke", "--workers", "0"], "workers"),
+    (["run", "smoke", "--threads", "0"], "threads"),
+    (["run", "smoke", "--scheduler", "nonsense"], "scheduler"),
+    (["run", "nothing-like-it"], "campaign"),
+    (["run", "--resume"], "campaign"),
+    (["run"], "campaign"),
+])
+def test_bad_options_are_one_line_errors(tmp_path, capsys, args, field):
+    err = _one_line_error(capsys, ["campaign", *args, "--out", str(tmp_path / "o")])
+    assert f"error: {field}=" in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_status_of_a_folder_without_a_campaign(tmp_path, capsys):
+    err = _one_line_error(capsys, ["campaign", "status", str(tmp_path)])
+    assert "error: campaign=" in err
+
+
+def test_builtins_share_the_structure_and_differ_in_budget():
+    expanded = {name: expand(builtin(name)) for name in BUDGETS}
+    shapes = {name: [(t["experiment"], t["kind"]) for t in tasks]
+              for name, tasks in expanded.items()}
+    assert set(map(str, [sorted(set(s)) for s in shapes.values()])) == {
+        str(sorted(set(shapes["paper"])))}
+    paper = {t["id"]: t for t in expanded["paper"]}
+    assert paper["rq1/worm-s9"]["options"]["generations"] == 3000
+    assert paper["rq1/worm-s9"]["options"]["population"] == 96
+    assert paper["rq2-homo/worm-s9+s0-reopt"]["options"]["generations"] == 510
+    assert sum(t["experiment"] == "rq1" for t in expanded["paper"]) == 20
+    assert paper["ablation/biped-s0"]["options"]["representation"] == "weights"
+    assert paper["omega-0.1/biped-s0"]["options"]["omega"] == 0.1
+
+
+def test_tasks_follow_the_contract():
+    tasks = expand(builtin("smoke"))
+    seen = set()
+    for task in tasks:
+        assert task["id"] == task["path"] == f"{task['experiment']}/{task['id'].split('/')[1]}"
+        assert all(need in seen for need in task["needs"])  # dependency order
+        seen.add(task["id"])
+        if task["kind"] in ("evolve", "reoptimize"):
+            # every option of the run resolved: resolving again changes nothing
+            own = {k: v for k, v in task["options"].items()
+                   if k not in ("representation", "donors", "validation")}
+            assert resolve(own).to_dict() == own
+    by_id = {t["id"]: t for t in tasks}
+    # the paper's pairs: back/legs of run i, front/torso of run i+1; heterogeneous: run i of
+    # both shapes, the receiver's last module from the other shape's last
+    assert by_id["rq2-homo/worm-s1+s0"]["options"]["donors"] == ["rq1/worm-s1", "rq1/worm-s0"]
+    hetero = by_id["rq2-hetero/worm-s0+biped-s0"]["options"]
+    assert hetero["donors"] == ["rq1/worm-s0", "rq1/biped-s0"]
+    assert hetero["take"] == "back=DONOR1:back,front=DONOR2:torso"
+    reopt = by_id["rq3-reassembly/biped-s0+s1-reopt"]
+    assert reopt["options"]["start"] == "rq3-reassembly/biped-s0+s1"
+    assert "rq3-discovery/biped-s0" in by_id["rq3-reassembly/biped-s0+s1"]["needs"]
+    assert by_id["omega-reassembly/omega-10-worm-s0+s1-reopt"]["options"]["omega"] == 10.0
+
+
+def test_variants_are_a_dimension_of_the_grid():
+    campaign = parse({"defaults": {"generations": 5}, "experiments": {
+        "w": {"kind": "evolve", "shapes": ["worm"], "seeds": [4, 5],
+              "variants": {"strong": {"omega": 10.0}, "none": {}}},
+        "r": {"kind": "reassemble", "donors": "w", "reoptimize": {"population": 6}},
+    }}, name="mine", source="test")
+    tasks = {t["id"]: t for t in expand(campaign)}
+    assert tasks["w/strong-worm-s5"]["options"]["omega"] == 10.0
+    assert tasks["w/none-worm-s5"]["options"]["omega"] == 1.0
+    reopt = tasks["r/strong-worm-s5+s4-reopt"]["options"]
+    assert (reopt["omega"], reopt["population"], reopt["generations"]) == (10.0, 6, 510)
+    assert len(tasks) == 4 + 4 + 4
+
+
+def test_list_counts_the_tasks(capsys):
+    assert main(["campaign", "list"]) == 0
+    out = capsys.readouterr().out
+    for name in BUDGETS:
+        row = next(line for line in out.splitlines() if f" {name} " in line)
+        assert f" {len(expand(builtin(name)))} " in row
+
+
+def test_a_folder_of_something_else_is_refused(tmp_path, capsys):
+    (tmp_path / "notes.txt").write_text("mine")
+    err = _one_line_error(capsys, ["campaign", "run", "smoke", "--out", str(tmp_path)])
+    assert "notes.txt" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_another_campaign_is_refused_and_the_same_needs_resume(tmp_path, capsys):
+    from somite.campaigns.directory import document, prepare
+
+    smoke = builtin("smoke")
+    prepare(tmp_path, document(smoke, expand(smoke)), resume=False)
+    err = _one_line_error(capsys, ["campaign", "run", "quick", "--resume", "--out",
+                                   str(tmp_path)])
+    assert "not this campaign's" in err
+    err = _one_line_error(capsys, ["campaign", "run", "smoke", "--out", str(tmp_path)])
+    assert "--resume" in err
+
+
+# -- running on Dask ----------------------------------------------------------------------------
+
+def _run(*args, **kwargs) -> subprocess.CompletedProcess:
+    return subprocess.run([*SOMITE, *args], capture_output=True, text=True, timeout=300,
+                          **kwargs)
+
+
+def _logs(directory: Path) -> dict[str, list[dict]]:
+    """Every file the tasks of a campaign wrote (but done.json), elapsed times aside."""
+    found = {}
+    for path in sorted(directory.rglob("*")):
+        if not path.is_file() or path.name in ("done.json", ".somite.lock"):
+            continue
+        key = str(path.relative_to(directory))
+        if path.name == "log.csv":
+            rows = list(csv.DictReader(io.StringIO(path.read_text())))
+            for row in rows:
+                row.pop("elapsed_seconds")
+            found[key] = rows
+        elif path.name == "checkpoint.json":
+            state = json.loads(path.read_text())
+            state.pop("elapsed_seconds")
+            found[key] = state
+        elif path.name != "campaign.json":
+            found[key] = path.read_text()
+    return found
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory) -> Path:
+    """The smoke campaign on a LocalCluster of 2 workers of 1 thread."""
+    out = tmp_path_factory.mktemp("campaign") / "smoke"
+    result = _run("campaign", "run", "smoke", "--out", str(out), "--workers", "2",
+                  "--threads", "1", "--quiet")
+    assert result.returncode == 0, result.stderr
+    return out
+
+
+def test_smoke_writes_every_task_folder(smoke_run, capsys):
+    doc = json.loads((smoke_run / "campaign.json").read_text())
+    assert doc["format"] == "somite-campaign" and doc["name"] == "smoke"
+    assert set(doc["experiments"]) == {"rq1", "ablation", "omega-10", "omega-0.1", "rq2-homo",
+                                       "rq2-hetero", "omega-reassembly", "rq3-discovery",
+                                       "rq3-reassembly"}
+    for task in doc["tasks"]:
+        folder = smoke_run / task["path"]
+        done = json.loads((folder / "done.json").read_text())
+        assert done["task"] == task["id"] and done["elapsed_s"] >= 0
+        assert OUTPUTS[task["kind"]] <= {p.name for p in folder.iterdir()}, task["id"]
+        if task["kind"] in ("evolve", "reoptimize"):
+            log = (folder / "log.csv").read_text().splitlines()
+            assert len(log) == 2 + task["options"]["generations"]
+            assert done["robot_control_steps"] > 0
+            assert set(RUN_FILES) - {"transfer.csv"} <= {p.name for p in folder.iterdir()}
+    assert not (smoke_run / ".somite.lock").exists()
+    assert main(["campaign", "status", str(smoke_run)]) == 0
+    out = capsys.readouterr().out
+    assert f"{len(doc['tasks'])} done, 0 running, 0 partial, 0 queued" in out
+
+
+def test_a_finished_campaign_resumes_to_nothing(smoke_run):
+    before = {p: p.stat().st_mtime_ns for p in smoke_run.rglob("*") if p.is_file()}
+    result = _run("campaign", "run", "--resume", "--out", str(smoke_run), "--quiet")
+    assert result.returncode == 0, result.stderr
+    assert {p: p.stat().st_mtime_ns for p in smoke_run.rglob("*") if p.is_file()} == before
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def _wait(predicate, timeout: float = 120.0, every: float = 0.05):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(every)
+    raise AssertionError("timed out waiting")
+
+
+def test_a_scheduler_and_workers_started_by_hand_give_the_same_logs(smoke_run, tmp_path):
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    dask = [sys.executable, "-m", "dask"]
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    processes = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port",
+                                   str(port), "--no-dashboard"], **quiet)]
+    try:
+        processes += [subprocess.Popen([*dask, "worker", address, "--nthreads", "1",
+                                        "--no-dashboard"], cwd=tmp_path, **quiet)
+                      for _ in range(2)]
+        out = tmp_path / "smoke"
+        result = _run("campaign", "run", "smoke", "--out", str(out), "--scheduler", address,
+                      "--quiet")
+        assert result.returncode == 0, result.stderr
+    finally:
+        for process in processes[::-1]:
+            process.terminate()
+        for process in processes:
+            process.wait(timeout=30)
+    assert _logs(out) == _logs(smoke_run)
+
+
+def _done(directory: Path) -> int:
+    return len(list(directory.glob("*/*/done.json")))
+
+
+def test_a_killed_campaign_resumes_to_the_same_logs(smoke_run, tmp_path):
+    out = tmp_path / "smoke"
+    process = subprocess.Popen([*SOMITE, "campaign", "run", "smoke", "--out", str(out),
+                                "--workers", "2", "--quiet"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    _wait(lambda: _done(out) >= 8 or process.poll() is not None)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    total = len(json.loads((out / "campaign.json").read_text())["tasks"])
+    assert _done(out) < total  # killed mid-way
+    result = _run("campaign", "run", "--resume", "--out", str(out), "--quiet")
+    assert result.returncode == 0, result.stderr
+    assert _done(out) == total
+    assert _logs(out) == _logs(smoke_run)
+
+
+LONG_RUN = """
+[defaults]
+generations = 30
+population = 8
+duration = 3.0
+checkpoint_every = 4
+validate_every = 30
+[experiments.long]
+kind = "evolve"
+shapes = ["worm"]
+seeds = [7]
+"""
+
+
+def test_a_killed_worker_is_replaced_and_its_run_resumes(tmp_path):
+    spec = tmp_path / "long.toml"
+    spec.write_text(LONG_RUN)
+    out = tmp_path / "campaign"
+    process = subprocess.Popen([*SOMITE, "campaign", "run", str(spec), "--out", str(out),
+                                "--workers", "1", "--quiet"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    run = out / "long" / "worm-s7"
+
+    def running_worker():
+        try:
+            rows = len((run / "log.csv").read_text().splitlines()) - 1
+            holder = json.loads((run / ".somite.lock").read_text())
+        except (OSError, ValueError):
+            return None
+        return holder["pid"] if (run / "checkpoint.json").exists() and rows >= 9 else None
+
+    worker = _wait(running_worker)
+    assert worker != process.pid  # the run is in a worker process, not the campaign's
+    os.kill(worker, signal.SIGKILL)
+    time.sleep(0.2)
+    logged = (run / "log.csv").read_text().splitlines()
+    checkpoint = json.loads((run / "checkpoint.json").read_text())["generation"]
+    _, err = process.communicate(timeout=300)
+    assert process.returncode == 0, err
+    assert len(logged) - 1 < 31 and (run / "done.json").is_file()
+    # Resumed from the checkpoint: the rows before it are those of the killed worker, its
+    # elapsed times included.
+    assert (run / "log.csv").read_text().splitlines()[:checkpoint + 2] == logged[:checkpoint + 2]
+    # The same run, never interrupted, from the library.
+    from somite.campaigns.work import run_config
+    from somite.experiments.runner import evolve
+
+    task = json.loads((out / "campaign.json").read_text())["tasks"][0]
+    evolve(run_config(task["options"]), tmp_path / "direct")
+    direct = _logs(tmp_path / "direct")
+    resumed = _logs(run)
+    assert resumed["log.csv"] == direct["log.csv"]
+    assert resumed["bests.jsonl"] == direct["bests.jsonl"]

@@ -6,7 +6,7 @@ rescheduled by Dask, and one that fails is retried (``retries``): either way it 
 resumes from what is on disk. Tasks carry the campaign directory's absolute path, so workers on
 other machines need the same path to it (a shared file system).
 
-Sizing: a task is single-process Numba code whose Python between kernel calls (6.6% of a
+Sizing: a task is single-process Numba code whose Python between kernel calls (3% of a
 generation) leaves threads idle, so by default each core gets a worker process of its own with
 one Numba thread (``workers = cores // threads``); campaigns have far more runs than cores until
 their last few tasks.

@@ -44,8 +44,10 @@ CONVERGENCE = 0.8
 """Per-gait rank correlation that 8 and 16 substeps must reach for each shape."""
 
 
-def miss(report: dict) -> float:
-    """How far a fidelity report (:func:`fidelity.compare`) is from every target; 0 = all met."""
+def miss(report: dict, jump_limit: float | None = None) -> float:
+    """How far a fidelity report (:func:`fidelity.compare`) is from every target; 0 = all met.
+    With ``jump_limit``, also how far each shape's synchronous gaits jump higher than that many
+    times the reference's (``com_height_ratio``; the default fit jumps 1.4x on the worm)."""
     total = 0.0
     in_range = 0
     for shape, figures in report.items():
@@ -57,6 +59,8 @@ def miss(report: dict) -> float:
         total += max(0.0, ours["tipped_rate"] - 1.5 * theirs["tipped_rate"])
         total += max(0.0, ours["stall_rate"] - 1.5 * theirs["stall_rate"])
         in_range += figures["best_ratio_in_range"]
+        if jump_limit is not None:
+            total += max(0.0, figures["com_height_ratio"]["synchronous"] - jump_limit)
     return total + 0.1 * max(0, 7 - in_range)
 
 
@@ -76,17 +80,19 @@ def summary(reports: list[dict]) -> dict:
             "fastest_ratio": mean(lambda f: f["fastest_ratio"]),
             "tipped_rate": mean(lambda f: f["somite"]["tipped_rate"]),
             "stall_rate": mean(lambda f: f["somite"]["stall_rate"]),
+            "synchronous_jump_ratio": mean(lambda f: f["com_height_ratio"]["synchronous"]),
         }
     return out
 
 
-def score(reference: list[dict], options: dict, converge: bool = False) -> dict:
+def score(reference: list[dict], options: dict, converge: bool = False,
+          jump_limit: float | None = None) -> dict:
     """The mean miss over AMPLITUDES; with ``converge``, plus how far the per-gait rank
     correlation between 8 and 16 substeps falls short of CONVERGENCE for each shape."""
     config = SimConfig().with_options(**options)
     runs = [run_somite(reference, config, amplitude=a) for a in AMPLITUDES]
     reports = [compare(run, reference) for run in runs]
-    misses = [miss(r) for r in reports]
+    misses = [miss(r, jump_limit) for r in reports]
     row = {"score": round(float(np.mean(misses)), 4), "misses": [round(m, 4) for m in misses],
            "options": options, "figures": summary(reports)}
     if converge:
@@ -108,7 +114,7 @@ def search(args: argparse.Namespace) -> None:
     reference = load_reference(args.reference)
     for _ in range(args.count):
         options = {k: round(float(rng.uniform(lo, hi)), 3) for k, (lo, hi) in ranges.items()}
-        print(json.dumps(score(reference, options, args.converge)), flush=True)
+        print(json.dumps(score(reference, options, args.converge, args.jump_limit)), flush=True)
 
 
 def check(args: argparse.Namespace) -> None:
@@ -119,11 +125,12 @@ def check(args: argparse.Namespace) -> None:
     if args.defaults:
         candidates.append({})
     for options in candidates:
-        row = score(reference, options)  # again: the code may have changed since the search
+        # Again: the code may have changed since the search.
+        row = score(reference, options, jump_limit=args.jump_limit)
         config = SimConfig().with_options(**options)
         coarse = run_somite(reference, config)
         fine = run_somite(reference, config.with_options(substeps=2 * config.substeps))
-        fine_miss = miss(compare(fine, reference))
+        fine_miss = miss(compare(fine, reference), args.jump_limit)
         print(json.dumps({**row, "miss_fine_step": round(fine_miss, 4),
                           "convergence": convergence(coarse, fine)}), flush=True)
 
@@ -131,6 +138,8 @@ def check(args: argparse.Namespace) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reference", type=Path, default=DEFAULT_REFERENCE)
+    parser.add_argument("--jump-limit", type=float, metavar="RATIO",
+                        help="also score synchronous jumps higher than RATIO x the reference's")
     commands = parser.add_subparsers(dest="command", required=True)
     p = commands.add_parser("search", help="score random candidates")
     p.add_argument("--range", action="append", required=True, metavar="NAME=LOW,HIGH")

@@ -10,7 +10,9 @@ three hilly terrains; 5 frequencies x 5 phases) in somite and prints, per shape,
 - pathology rates in both simulators: tipping past 90 degrees, stalls (a gait that does at least
   0.5 m/s on flat but under 0.1 m/s on a hilly terrain, over the hilly episodes of such gaits),
   the highest and the median jump (lowest point above the ground), the highest centre of mass
-  above the ground, its top speed, and the smallest signed voxel area ratio.
+  above the ground, its top speed, and the smallest signed voxel area ratio;
+- ``com_height_ratio``: somite's highest centre of mass over the reference's, averaged over
+  the synchronous gaits (phase 0, from 1.5 Hz: the ones that jump) and over all the others.
 
 With ``--substeps-against N`` it also reruns somite with N substeps and gives the rank
 correlations of that run against the first (convergence in the time step); with ``--chaos``,
@@ -132,6 +134,22 @@ def pathologies(rows: list[dict]) -> dict:
     }
 
 
+SYNCHRONOUS_FREQ = 1.5
+"""Gaits of phase 0 (every voxel in step) from this frequency on are the ones that jump."""
+
+
+def com_height_ratios(mine: list[dict], theirs: list[dict]) -> dict:
+    """Mean ratio of the highest centre of mass, somite over the reference, for the
+    synchronous jumping gaits (phase 0, >= 1.5 Hz) and for all the others: where somite's jumps
+    differ from the reference's, and whether it is the whole body or one kind of gait."""
+    groups: dict[str, list[float]] = {"synchronous": [], "other": []}
+    for a, b in zip(mine, theirs):
+        sync = a["phase_name"] == "0" and a["freq"] >= SYNCHRONOUS_FREQ
+        groups["synchronous" if sync else "other"].append(a["max_com_height"]
+                                                         / b["max_com_height"])
+    return {k: float(np.mean(v)) for k, v in groups.items() if v}
+
+
 def _key(r: dict) -> tuple:
     return (r["shape"], r["terrain"], r["freq"], r["phase_name"])
 
@@ -157,6 +175,7 @@ def compare(ours: list[dict], ref: list[dict]) -> dict:
             "best_ratio": best,
             "best_ratio_in_range": sum(0.75 <= v <= 1.33 for v in best.values()),
             "fastest_ratio": max(r["vx"] for r in mine) / max(r["vx"] for r in theirs),
+            "com_height_ratio": com_height_ratios(mine, theirs),
             "somite": ours_p,
             "reference": theirs_p,
         }

@@ -415,7 +415,7 @@ def keep_orientation(robot, pos, vel):
             restore_area(sw, se, ne, nw, min_area, robot.inv_mass, pos, vel)
 
 
-@njit
+@njit(_nrt=False)
 def restore_area(sw, se, ne, nw, min_area, inv_mass, pos, vel):
     """Move the corners of a voxel smaller than ``min_area`` along its area's gradient,
     weighted by inverse mass, to restore ``min_area``, and remove the corners' shrinking

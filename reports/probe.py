@@ -90,7 +90,8 @@ def prepare(root: Path) -> None:
     deep = "[" * 200_000 + "]" * 200_000
     for name in ("genome", "checkpoint", "partition", "module"):
         (bad / f"deep-{name}.json").write_text(deep)
-    write = (lambda name, data: (bad / name).write_text(json.dumps(data)))
+    def write(name, data):
+        return ((bad / name).write_text(json.dumps(data)))
     write("huge-weight.json", edited(genome, lambda g: g["edges"][0].update(weight=1e308)))
     write("minus-huge-weight.json",
           edited(genome, lambda g: [e.update(weight=-1e308, bias=1e308) for e in g["edges"]]))
@@ -329,7 +330,7 @@ def cases() -> list[tuple[str, str, list[str], str]]:
          ["evolve", "--population", "2", "--generations", "0", "--out", "run"])
 
     # Variations: the same classes, other values.
-    for name, text in (("toml-inf", "duration = inf\n"), ("toml-nan", "omega = nan\n"),
+    for name, _text in (("toml-inf", "duration = inf\n"), ("toml-nan", "omega = nan\n"),
                        ("toml-string", "population = 'many'\n"), ("toml-table", "[shape]\n"),
                        ("toml-shape-int", "shape = 5\n"), ("toml-unknown", "colour = 1\n"),
                        ("toml-broken", "population = \n")):

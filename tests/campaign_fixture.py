@@ -11,7 +11,7 @@ Two tasks are left unfinished: ``rq1/worm-s3`` (a run without done.json) and
 from __future__ import annotations
 
 import json
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 from somite.cli import main
@@ -45,7 +45,7 @@ class Builder:
             assert main([*argv, "--out", str(folder)]) == 0, task_id
             if finish:
                 done = {"task": task_id, "elapsed_s": 0.0, "robot_control_steps": 0,
-                        "finished": datetime.now(timezone.utc).isoformat()}
+                        "finished": datetime.now(UTC).isoformat()}
                 (folder / "done.json").write_text(json.dumps(done))
         return task_id
 

@@ -1,0 +1,64 @@
+"""The benchmark scripts run and print the JSON that BENCHMARKS.md quotes (at tiny sizes: no
+timing is checked). One of them once broke unnoticed when the log gained a column."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+REFERENCE = ROOT.parent / "shared/reference/vsr-sine-sweep.csv"
+needs_reference = pytest.mark.skipif(not REFERENCE.exists(),
+                                     reason="the reference measurements are not beside the clone")
+
+
+def run_script(name: str, *args: str) -> dict | list:
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / name), *args],
+                          capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    lines = done.stdout.strip().splitlines()
+    if name == "calibrate.py":  # JSON lines
+        return [json.loads(line) for line in lines]
+    return json.loads(done.stdout)
+
+
+def test_kernel_benchmark():
+    out = run_script("kernel.py", "--robots", "4", "--duration", "0.5")
+    assert {p["shape"] for p in out["populations"]} == {"worm", "biped"}
+    for p in out["populations"]:
+        assert p["robots"] == 4 and p["steps_per_robot"] == 30 and p["finite"]
+        assert p["robot_control_steps_per_second"] > 0
+    assert "loaded_from_cache" in out["compile"]
+
+
+def test_generation_benchmark():
+    out = run_script("generation.py", "--generations", "2", "--population", "4")
+    assert out["population"] == 4
+    assert set(out["seconds"]) >= {"select_and_mutate", "kernel", "log_and_bests"}
+    assert out["generation_seconds"] == pytest.approx(sum(out["seconds"].values()), abs=1e-3)
+    assert 0.0 <= out["python_overhead_fraction"] < 1.0
+
+
+@needs_reference
+def test_fidelity_benchmark():
+    out = run_script("fidelity.py")
+    for shape in ("worm-6x2", "biped-4x3"):
+        figures = out["fidelity"][shape]
+        assert -1.0 <= figures["rank_all"] <= 1.0
+        assert len(figures["best_ratio"]) == 4
+        assert set(figures["com_height_ratio"]) == {"synchronous", "other"}
+        assert figures["somite"]["negative_area_episodes"] == 0
+
+
+@needs_reference
+def test_calibrate_scores_the_defaults_like_fidelity():
+    rows = run_script("calibrate.py", "--jump-limit", "1.2", "search", "--count", "1",
+                      "--range", "friction=1.48,1.48")
+    assert len(rows) == 1
+    assert rows[0]["options"] == {"friction": 1.48}
+    assert len(rows[0]["misses"]) == 2 and rows[0]["score"] >= 0.0
+    assert "synchronous_jump_ratio" in rows[0]["figures"]["worm-6x2"]

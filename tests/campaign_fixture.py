@@ -1,5 +1,6 @@
 """A tiny campaign directory built the way ``somite campaign run`` builds one: each task is the
-matching ``somite`` command writing its folder, then ``done.json`` (campaign-contract.md).
+matching ``somite`` command writing its folder, then ``done.json`` (the layout of
+:mod:`somite.campaigns.directory`).
 
 Experiments as in the built-in campaigns, at a budget of seconds: rq1, ablation, omega-10 and
 omega-0.1 evolve runs; homogeneous and heterogeneous reassemblies with their

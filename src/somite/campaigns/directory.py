@@ -46,8 +46,7 @@ def read(directory: str | Path) -> dict:
     ):
         raise bad("campaign", str(path), "not a somite campaign.json")
     if data.get("version") != VERSION:
-        raise bad("campaign", str(path), f"version {data.get('version')!r}; this somite reads "
-                  f"version {VERSION}")
+        raise bad("campaign.version", data.get("version"), f"this somite reads {VERSION}")
     return data
 
 

@@ -1,4 +1,4 @@
-"""A campaign directory as the report reads it (/work/notes/campaign-contract.md).
+"""A campaign directory as the report reads it (the layout: :mod:`somite.campaigns.directory`).
 
 ``DIR/campaign.json`` lists the tasks; ``DIR/<task path>/done.json`` marks a finished one. The
 report trusts nothing else: a task without ``done.json`` is *missing* (its folder may hold a
@@ -10,11 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
-from .._io import read_json
+from ..campaigns.directory import read
+from ..campaigns.work import DONE
 from ..errors import bad
 
-FORMAT = "somite-campaign"
-VERSION = 1
 KINDS = ("evolve", "reassemble", "reoptimize", "discover")
 
 
@@ -75,24 +74,14 @@ def read_campaign(root: str | Path) -> Campaign:
     root = Path(root)
     if not root.is_dir():
         raise bad("campaign", str(root), "no such campaign directory")
-    path = root / "campaign.json"
-    if not path.is_file():
-        raise bad("campaign", str(root), "has no campaign.json (not a campaign directory)")
-    data = read_json(path, "campaign")
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
-        raise bad("campaign", str(path), f"not a {FORMAT!r} file")
-    if data.get("version") != VERSION:
-        raise bad("campaign.version", data.get("version"), f"this somite reads {VERSION}")
+    data = read(root)
     experiments = data.get("experiments", {})
     if not isinstance(experiments, dict) or not all(
         isinstance(v, dict) for v in experiments.values()
     ):
         raise bad("campaign.experiments", experiments, "expected an object of objects")
-    raw = data.get("tasks")
-    if not isinstance(raw, list):
-        raise bad("campaign.tasks", raw, "expected a list of tasks")
     tasks, seen = [], set()
-    for item in raw:
+    for item in data["tasks"]:
         task = _task(root, item)
         if task.id in seen:
             raise bad("campaign.tasks.id", task.id, "listed twice")
@@ -124,7 +113,7 @@ def _task(root: Path, item) -> Task:
         raise bad("campaign.tasks.options", options, "expected an object")
     folder = root / relative
     return Task(item["id"], item["experiment"], item["kind"], folder, tuple(needs), options,
-                (folder / "done.json").is_file())
+                (folder / DONE).is_file())
 
 
 def task_row(task: Task, done: bool) -> dict:

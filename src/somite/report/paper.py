@@ -3,7 +3,7 @@
 The report prints these beside the campaign's own numbers. Where the paper gives only a claim or
 a rough figure read off a plot ("hover above 60 %"), ``value`` is that rough number and ``text``
 quotes the claim; ``value`` is None where the paper gives no number at all. Section numbers are
-the paper's; /work/shared/paper/ holds its text.
+the paper's.
 """
 
 from __future__ import annotations

@@ -99,12 +99,13 @@ def _read_log(path: Path) -> dict[str, np.ndarray]:
     if not rows:
         raise bad("log", str(path), "has no generation rows yet")
     return {
-        c: np.array([_number(row.get(c)) for row in rows], dtype=np.float64)
+        c: np.array([number(row.get(c)) for row in rows], dtype=np.float64)
         for c in NUMERIC_COLUMNS
     }
 
 
-def _number(text: str | None) -> float:
+def number(text: str | None) -> float:
+    """A log cell as a float: NaN where it is empty or not a number."""
     try:
         return float(text)
     except (TypeError, ValueError):

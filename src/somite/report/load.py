@@ -5,11 +5,10 @@ the report shows it as missing."""
 from __future__ import annotations
 
 import csv
-import math
 from dataclasses import dataclass, field
 
 from .._io import read_json, read_text
-from ..analysis.stats import RunLog, load_run
+from ..analysis.stats import RunLog, load_run, number
 from ..brain.genome import Genome
 from ..errors import SomiteError, bad
 from ..experiments.config import resolve
@@ -80,7 +79,7 @@ def read_transfer(task: Task) -> list[dict]:
     reader = csv.DictReader(text.splitlines())
     if "rho" not in (reader.fieldnames or ()) or "generation" not in reader.fieldnames:
         raise bad("transfer", str(path), "lacks the columns generation and rho")
-    rows = [{k: _number(v) for k, v in row.items()} for row in reader]
+    rows = [{k: number(v) for k, v in row.items()} for row in reader]
     if not rows:
         raise bad("transfer", str(path), "has no rows")
     return rows
@@ -106,13 +105,6 @@ def _discovered(task: Task, loaded: Loaded) -> None:
 
 _READERS = {"evolve": _run, "reoptimize": _reoptimized, "reassemble": _reassembled,
             "discover": _discovered}
-
-
-def _number(text) -> float:
-    try:
-        return float(text)
-    except (TypeError, ValueError):
-        return math.nan
 
 
 __all__ = ["Loaded", "load", "read_transfer", "shape_name"]

@@ -16,12 +16,16 @@ three hilly terrains; 5 frequencies x 5 phases) in somite and prints, per shape,
 
 With ``--substeps-against N`` it also reruns somite with N substeps and gives the rank
 correlations of that run against the first (convergence in the time step); with ``--chaos``,
-the same for amplitude 0.999 instead of 1 (somite's own chaos, to set beside the reference's).
+the same for amplitude 0.999 instead of 1 (somite's own chaos, to set beside the reference's);
+with ``--reference-chaos PATH`` (the reference's cells at amplitude 0.999), the reference's own.
+``benchmarks/reference/`` holds more cells measured in 2D-VSR-Sim, on gaits and terrains that
+the fit never saw (its README).
 Single cells are chaotic in both simulators (README of the reference data), so look at
 rankings and rates.
 
     python benchmarks/fidelity.py [--reference PATH] [--option NAME=VALUE ...]
                                   [--substeps-against 16] [--amplitude 0.999]
+                                  [--reference-chaos PATH]
 """
 
 from __future__ import annotations
@@ -195,6 +199,14 @@ def convergence(first: list[dict], second: list[dict]) -> dict:
     return report
 
 
+def reference_chaos(ref: list[dict], other: list[dict]) -> dict:
+    """The reference's own chaos: its rank agreement with ``other``, the same simulator on
+    the same cells at amplitude 0.999 (over the cells that both files hold)."""
+    by_key = {_key(r): r for r in other}
+    mine = [r for r in ref if _key(r) in by_key]
+    return convergence(mine, [by_key[_key(r)] for r in mine])
+
+
 def parse_options(pairs: list[str]) -> dict:
     options = {}
     for pair in pairs:
@@ -213,6 +225,8 @@ def main() -> None:
                         help="of the sine gaits (0.999: somite's own chaos, as in the reference)")
     parser.add_argument("--chaos", action="store_true",
                         help="also rerun at amplitude 0.999 and rank that against the first run")
+    parser.add_argument("--reference-chaos", type=Path, metavar="PATH",
+                        help="the reference's cells at amplitude 0.999: its own chaos floor")
     parser.add_argument("--cells", type=Path, help="also write every cell's numbers (CSV)")
     args = parser.parse_args()
     ref = load_reference(args.reference)
@@ -229,6 +243,8 @@ def main() -> None:
         other = run_somite(ref, config, args.amplitude * CHAOS_AMPLITUDE)
         out["chaos"] = {"amplitude": args.amplitude * CHAOS_AMPLITUDE,
                         **convergence(ours, other)}
+    if args.reference_chaos:
+        out["reference_chaos"] = reference_chaos(ref, load_reference(args.reference_chaos))
     if args.cells:
         with open(args.cells, "w", newline="") as f:
             writer = csv.DictWriter(f, fieldnames=list(ours[0]))

@@ -62,3 +62,36 @@ def test_calibrate_scores_the_defaults_like_fidelity():
     assert rows[0]["options"] == {"friction": 1.48}
     assert len(rows[0]["misses"]) == 2 and rows[0]["score"] >= 0.0
     assert "synchronous_jump_ratio" in rows[0]["figures"]["worm-6x2"]
+
+
+HELD_OUT = ROOT / "benchmarks/reference"
+COLUMNS = ("shape,terrain,freq,phase_name,phase,vx,max_abs_tilt_deg,flipped_frac,max_air_gap,"
+           "max_com_height,max_com_speed,min_quad_ratio,min_area_ratio,max_area_ratio")
+
+
+@pytest.mark.parametrize("name, cells", [("heldout-1", 152), ("heldout-1-a0999", 128),
+                                         ("heldout-2", 80), ("heldout-2-a0999", 80)])
+def test_held_out_cells_have_the_reference_format(name, cells):
+    lines = (HELD_OUT / f"{name}.csv").read_text().splitlines()
+    assert lines[0] == COLUMNS
+    assert len(lines) - 1 == cells
+    assert {line.split(",")[0] for line in lines[1:]} == {"worm-6x2", "biped-4x3"}
+
+
+def test_fidelity_on_the_held_out_cells():
+    cells = HELD_OUT / "heldout-2.csv"
+    out = run_script("fidelity.py", "--reference", str(cells),
+                     "--reference-chaos", str(HELD_OUT / "heldout-2-a0999.csv"))
+    rows = [line.split(",") for line in cells.read_text().splitlines()[1:]]
+    for shape in ("worm-6x2", "biped-4x3"):
+        figures = out["fidelity"][shape]
+        assert len(figures["best_ratio"]) == 4  # flat and three hilly terrains
+        assert figures["somite"]["negative_area_episodes"] == 0
+        # The reference's own figures are read from the file, not simulated.
+        tipped = sum(r[0] == shape and float(r[6]) > 90 for r in rows)
+        assert figures["reference"]["tipped"] == tipped
+        assert -1.0 <= out["reference_chaos"][shape]["rank_all"] < 1.0
+    same = run_script("fidelity.py", "--reference", str(cells), "--reference-chaos", str(cells))
+    for shape in ("worm-6x2", "biped-4x3"):
+        assert same["reference_chaos"][shape]["rank_all"] == pytest.approx(1.0)
+        assert same["reference_chaos"][shape]["rank_per_gait"] == pytest.approx(1.0)

@@ -13,6 +13,9 @@ convergence in the time step).
         --count 100 --seed 0 > candidates.jsonl
     python benchmarks/calibrate.py check candidates.jsonl --best 5 --defaults
 
+``--reference`` (repeatable) scores on other grids of reference cells, such as the held-out
+ones of ``benchmarks/reference/``; with several, each candidate's misses add up.
+
 somite's defaults (``SimConfig``) came from such a search; BENCHMARKS.md gives the ranges, the
 chosen values and their fidelity figures.
 """
@@ -59,8 +62,9 @@ def miss(report: dict, jump_limit: float | None = None) -> float:
         total += max(0.0, ours["tipped_rate"] - 1.5 * theirs["tipped_rate"])
         total += max(0.0, ours["stall_rate"] - 1.5 * theirs["stall_rate"])
         in_range += figures["best_ratio_in_range"]
-        if jump_limit is not None:
-            total += max(0.0, figures["com_height_ratio"]["synchronous"] - jump_limit)
+        synchronous = figures["com_height_ratio"].get("synchronous")
+        if jump_limit is not None and synchronous is not None:  # a grid may have none
+            total += max(0.0, synchronous - jump_limit)
     return total + 0.1 * max(0, 7 - in_range)
 
 
@@ -80,7 +84,9 @@ def summary(reports: list[dict]) -> dict:
             "fastest_ratio": mean(lambda f: f["fastest_ratio"]),
             "tipped_rate": mean(lambda f: f["somite"]["tipped_rate"]),
             "stall_rate": mean(lambda f: f["somite"]["stall_rate"]),
-            "synchronous_jump_ratio": mean(lambda f: f["com_height_ratio"]["synchronous"]),
+            "synchronous_jump_ratio": (
+                mean(lambda f: f["com_height_ratio"]["synchronous"])
+                if all("synchronous" in f["com_height_ratio"] for f in figures) else None),
         }
     return out
 
@@ -104,6 +110,27 @@ def score(reference: list[dict], options: dict, converge: bool = False,
     return row
 
 
+def score_all(references: dict[str, list[dict]], options: dict, converge: bool = False,
+              jump_limit: float | None = None) -> dict:
+    """:func:`score` on each reference grid; with several, their scores add up and each
+    grid's row is kept under its file name."""
+    rows = {name: score(cells, options, converge, jump_limit)
+            for name, cells in references.items()}
+    if len(rows) == 1:
+        return next(iter(rows.values()))
+    for row in rows.values():
+        del row["options"]
+    return {"score": round(sum(row["score"] for row in rows.values()), 4), "options": options,
+            "references": rows}
+
+
+def load_references(paths: list[Path]) -> dict[str, list[dict]]:
+    names = [path.name for path in paths]
+    if len(set(names)) < len(names):
+        names = [str(path) for path in paths]
+    return {name: load_reference(path) for name, path in zip(names, paths)}
+
+
 def search(args: argparse.Namespace) -> None:
     ranges = {}
     for text in args.range:
@@ -111,33 +138,44 @@ def search(args: argparse.Namespace) -> None:
         low, high = (float(v) for v in bounds.split(","))
         ranges[name] = (low, high)
     rng = np.random.default_rng(args.seed)
-    reference = load_reference(args.reference)
+    references = load_references(args.reference)
     for _ in range(args.count):
         options = {k: round(float(rng.uniform(lo, hi)), 3) for k, (lo, hi) in ranges.items()}
-        print(json.dumps(score(reference, options, args.converge, args.jump_limit)), flush=True)
+        print(json.dumps(score_all(references, options, args.converge, args.jump_limit)),
+              flush=True)
 
 
 def check(args: argparse.Namespace) -> None:
     rows = [json.loads(line) for path in args.files for line in open(path) if line.strip()]
     rows.sort(key=lambda row: row["score"])
-    reference = load_reference(args.reference)
+    references = load_references(args.reference)
     candidates = [row["options"] for row in rows[: args.best]]
     if args.defaults:
         candidates.append({})
     for options in candidates:
         # Again: the code may have changed since the search.
-        row = score(reference, options, jump_limit=args.jump_limit)
+        row = score_all(references, options, jump_limit=args.jump_limit)
         config = SimConfig().with_options(**options)
-        coarse = run_somite(reference, config)
-        fine = run_somite(reference, config.with_options(substeps=2 * config.substeps))
-        fine_miss = miss(compare(fine, reference), args.jump_limit)
-        print(json.dumps({**row, "miss_fine_step": round(fine_miss, 4),
-                          "convergence": convergence(coarse, fine)}), flush=True)
+        fine_step = {}
+        for name, reference in references.items():
+            coarse = run_somite(reference, config)
+            fine = run_somite(reference, config.with_options(substeps=2 * config.substeps))
+            fine_step[name] = {"miss_fine_step": round(miss(compare(fine, reference),
+                                                            args.jump_limit), 4),
+                               "convergence": convergence(coarse, fine)}
+        if len(references) == 1:
+            row.update(next(iter(fine_step.values())))
+        else:
+            for name, extra in fine_step.items():
+                row["references"][name].update(extra)
+        print(json.dumps(row), flush=True)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--reference", type=Path, default=DEFAULT_REFERENCE)
+    parser.add_argument("--reference", type=Path, action="append",
+                        help="a grid of reference cells (repeatable: the misses add up); "
+                             "default: the shared reference")
     parser.add_argument("--jump-limit", type=float, metavar="RATIO",
                         help="also score synchronous jumps higher than RATIO x the reference's")
     commands = parser.add_subparsers(dest="command", required=True)
@@ -154,6 +192,7 @@ def main() -> None:
     p.add_argument("--defaults", action="store_true", help="also check SimConfig's defaults")
     p.set_defaults(run=check)
     args = parser.parse_args()
+    args.reference = args.reference or [DEFAULT_REFERENCE]
     args.run(args)
 
 

@@ -95,3 +95,18 @@ def test_fidelity_on_the_held_out_cells():
     for shape in ("worm-6x2", "biped-4x3"):
         assert same["reference_chaos"][shape]["rank_all"] == pytest.approx(1.0)
         assert same["reference_chaos"][shape]["rank_per_gait"] == pytest.approx(1.0)
+
+
+def test_calibrate_adds_up_the_misses_of_several_grids():
+    one = [run_script("calibrate.py", "--reference", str(HELD_OUT / name), "--jump-limit", "1.2",
+                      "search", "--count", "1", "--range", "friction=1.48,1.48")[0]
+           for name in ("heldout-1.csv", "heldout-2.csv")]
+    both = run_script("calibrate.py", "--reference", str(HELD_OUT / "heldout-1.csv"),
+                      "--reference", str(HELD_OUT / "heldout-2.csv"), "--jump-limit", "1.2",
+                      "search", "--count", "1", "--range", "friction=1.48,1.48")[0]
+    assert both["options"] == {"friction": 1.48}
+    assert set(both["references"]) == {"heldout-1.csv", "heldout-2.csv"}
+    for name, alone in zip(("heldout-1.csv", "heldout-2.csv"), one):
+        assert both["references"][name]["score"] == alone["score"]
+        assert both["references"][name]["figures"] == alone["figures"]
+    assert both["score"] == pytest.approx(one[0]["score"] + one[1]["score"])

@@ -70,7 +70,8 @@ COLUMNS = ("shape,terrain,freq,phase_name,phase,vx,max_abs_tilt_deg,flipped_frac
 
 
 @pytest.mark.parametrize("name, cells", [("heldout-1", 152), ("heldout-1-a0999", 128),
-                                         ("heldout-2", 80), ("heldout-2-a0999", 80)])
+                                         ("heldout-2", 80), ("heldout-2-a0999", 80),
+                                         ("heldout-3", 240), ("heldout-3-a0999", 240)])
 def test_held_out_cells_have_the_reference_format(name, cells):
     lines = (HELD_OUT / f"{name}.csv").read_text().splitlines()
     assert lines[0] == COLUMNS

@@ -17,7 +17,10 @@ three hilly terrains; 5 frequencies x 5 phases) in somite and prints, per shape,
 With ``--substeps-against N`` it also reruns somite with N substeps and gives the rank
 correlations of that run against the first (convergence in the time step); with ``--chaos``,
 the same for amplitude 0.999 instead of 1 (somite's own chaos, to set beside the reference's);
-with ``--reference-chaos PATH`` (the reference's cells at amplitude 0.999), the reference's own.
+with ``--reference-chaos PATH`` (the reference's cells at amplitude 0.999), the reference's own;
+with ``--reference-variant PATH`` (repeatable; the same cells in 2D-VSR-Sim with one of its
+parameters changed, ``benchmarks/reference/variants/``), how far the reference moves from itself
+when its physics changes a little, and how close somite is to each variant.
 ``benchmarks/reference/`` holds more cells measured in 2D-VSR-Sim, on gaits and terrains that
 the fit never saw (its README).
 Single cells are chaotic in both simulators (README of the reference data), so look at
@@ -25,7 +28,7 @@ rankings and rates.
 
     python benchmarks/fidelity.py [--reference PATH] [--option NAME=VALUE ...]
                                   [--substeps-against 16] [--amplitude 0.999]
-                                  [--reference-chaos PATH]
+                                  [--reference-chaos PATH] [--reference-variant PATH ...]
 """
 
 from __future__ import annotations
@@ -207,6 +210,20 @@ def reference_chaos(ref: list[dict], other: list[dict]) -> dict:
     return convergence(mine, [by_key[_key(r)] for r in mine])
 
 
+def reference_variant(ref: list[dict], variant: list[dict], ours: list[dict]) -> dict:
+    """2D-VSR-Sim against a variant of itself (the same cells with one parameter changed), per
+    shape: its rank agreement with the unchanged reference (:func:`reference_chaos`), its
+    tipping rate, and somite's rank agreement with the variant (as with the reference)."""
+    agreement = reference_chaos(ref, variant)
+    against_variant = compare(ours, variant)
+    for shape, figures in agreement.items():
+        figures["tipped_rate"] = pathologies([r for r in variant
+                                              if r["shape"] == shape])["tipped_rate"]
+        figures["somite_rank_all"] = against_variant[shape]["rank_all"]
+        figures["somite_rank_per_gait"] = against_variant[shape]["rank_per_gait"]
+    return agreement
+
+
 def parse_options(pairs: list[str]) -> dict:
     options = {}
     for pair in pairs:
@@ -227,6 +244,9 @@ def main() -> None:
                         help="also rerun at amplitude 0.999 and rank that against the first run")
     parser.add_argument("--reference-chaos", type=Path, metavar="PATH",
                         help="the reference's cells at amplitude 0.999: its own chaos floor")
+    parser.add_argument("--reference-variant", type=Path, action="append", default=[],
+                        metavar="PATH", help="the same cells in a variant of the reference "
+                        "simulator (repeatable): how far the reference itself moves")
     parser.add_argument("--cells", type=Path, help="also write every cell's numbers (CSV)")
     args = parser.parse_args()
     ref = load_reference(args.reference)
@@ -245,6 +265,10 @@ def main() -> None:
                         **convergence(ours, other)}
     if args.reference_chaos:
         out["reference_chaos"] = reference_chaos(ref, load_reference(args.reference_chaos))
+    if args.reference_variant:
+        out["reference_variants"] = {
+            path.stem: reference_variant(ref, load_reference(path), ours)
+            for path in args.reference_variant}
     if args.cells:
         with open(args.cells, "w", newline="") as f:
             writer = csv.DictWriter(f, fieldnames=list(ours[0]))

@@ -111,3 +111,63 @@ def test_calibrate_adds_up_the_misses_of_several_grids():
         assert both["references"][name]["score"] == alone["score"]
         assert both["references"][name]["figures"] == alone["figures"]
     assert both["score"] == pytest.approx(one[0]["score"] + one[1]["score"])
+
+
+VARIANTS = HELD_OUT / "variants"
+VARIANT_NAMES = ("restitution-0", "friction-5", "angular-damping-10", "spring-damping-0.6",
+                 "blocks-0.25")
+
+
+@pytest.mark.parametrize("variant", VARIANT_NAMES)
+@pytest.mark.parametrize("grid, cells", [("vsr-sine-sweep", 200), ("heldout-1", 152),
+                                         ("heldout-3", 240)])
+def test_variant_cells_are_those_of_their_grid(grid, cells, variant):
+    lines = (VARIANTS / f"{grid}-{variant}.csv").read_text().splitlines()
+    assert lines[0] == COLUMNS
+    assert len(lines) - 1 == cells
+    if grid != "vsr-sine-sweep":  # the shared grid is not in the clone
+        ref = (HELD_OUT / f"{grid}.csv").read_text().splitlines()
+        # Same cells in the same order (shape, terrain, freq, phase), different physics.
+        assert [line.split(",")[:5] for line in lines] == [line.split(",")[:5] for line in ref]
+        assert [line.split(",")[5] for line in lines[1:]] != [line.split(",")[5]
+                                                               for line in ref[1:]]
+
+
+def test_fidelity_against_a_variant_of_the_reference():
+    cells = HELD_OUT / "heldout-1.csv"
+    variant = VARIANTS / "heldout-1-restitution-0.csv"
+    out = run_script("fidelity.py", "--reference", str(cells), "--reference-variant",
+                     str(variant), "--reference-variant", str(cells))
+    assert set(out["reference_variants"]) == {"heldout-1-restitution-0", "heldout-1"}
+    rows = [line.split(",") for line in variant.read_text().splitlines()[1:]]
+    for shape in ("worm-6x2", "biped-4x3"):
+        moved = out["reference_variants"]["heldout-1-restitution-0"][shape]
+        assert -1.0 <= moved["rank_all"] < 1.0
+        shape_rows = [r for r in rows if r[0] == shape]
+        assert moved["tipped_rate"] == pytest.approx(
+            sum(float(r[6]) > 90 for r in shape_rows) / len(shape_rows))
+        # Against itself, the reference agrees perfectly and somite's ranks are fidelity's.
+        itself = out["reference_variants"]["heldout-1"][shape]
+        assert itself["rank_all"] == pytest.approx(1.0)
+        assert itself["somite_rank_all"] == out["fidelity"][shape]["rank_all"]
+        assert itself["somite_rank_per_gait"] == out["fidelity"][shape]["rank_per_gait"]
+
+
+def test_calibrate_tipping_band_scores_tipping_too_rarely():
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        from calibrate import miss
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    met = {"rank_all": 0.9, "rank_per_gait": 0.9, "fastest_ratio": 1.0,
+           "best_ratio_in_range": 4, "com_height_ratio": {"synchronous": 1.0}}
+    report = {
+        "worm-6x2": {**met, "somite": {"tipped_rate": 0.0, "stall_rate": 0.0},
+                     "reference": {"tipped_rate": 0.0, "stall_rate": 0.0}},
+        "biped-4x3": {**met, "somite": {"tipped_rate": 0.05, "stall_rate": 0.0},
+                      "reference": {"tipped_rate": 0.3, "stall_rate": 0.0}},
+    }
+    assert miss(report) == 0.0  # the targets cap tipping only from above
+    assert miss(report, tipping_band=True) == pytest.approx(0.3 / 1.5 - 0.05)
+    report["biped-4x3"]["somite"]["tipped_rate"] = 0.5
+    assert miss(report) == miss(report, tipping_band=True) == pytest.approx(0.5 - 0.45)

@@ -299,6 +299,31 @@ def test_a_killed_campaign_resumes_to_the_same_logs(smoke_run, tmp_path):
     assert _logs(out) == _logs(smoke_run)
 
 
+def test_a_retried_task_leaves_no_temporary_file_of_its_killed_attempt(smoke_run, tmp_path):
+    """A task killed between write and rename leaves ``.NAME.PID.RAND.tmp``; redoing it must
+    not keep that file beside the outputs (a killed campaign's resume once did)."""
+    import shutil
+
+    from somite.campaigns.work import run_task
+
+    out = tmp_path / "smoke"
+    shutil.copytree(smoke_run, out)
+    task = next(t for t in json.loads((out / "campaign.json").read_text())["tasks"]
+                if t["kind"] == "reassemble")
+    folder = out / task["path"]
+    (folder / "done.json").unlink()
+    (folder / "reassembled.json").unlink()
+    stale = folder / ".reassembled.json.4242.0123abcd.tmp"
+    stale.write_text('{"format": "somite-genome"')  # half-written
+    unrelated = folder / "notes.tmp"
+    unrelated.write_text("mine")
+    run_task(str(out), task)
+    assert not stale.exists()
+    assert unrelated.read_text() == "mine"  # only write_atomic's own temporary files go
+    assert (folder / "done.json").is_file()
+    assert _logs(folder) == _logs(smoke_run / task["path"]) | {"notes.tmp": "mine"}
+
+
 LONG_RUN = """
 [defaults]
 generations = 30

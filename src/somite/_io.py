@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 import uuid
 from pathlib import Path
+
+TEMPORARY = re.compile(r"\.(?P<name>.+)\.\d+\.[0-9a-f]{8}\.tmp")
+"""The name of :func:`write_atomic`'s temporary file: ``.NAME.PID.RAND.tmp``."""
 
 
 def write_atomic(path: str | os.PathLike, text: str) -> Path:
@@ -30,6 +34,18 @@ def write_atomic(path: str | os.PathLike, text: str) -> Path:
             raise _cannot_write(path, error) from None
         raise
     return path
+
+
+def remove_temporary(folder: str | os.PathLike) -> None:
+    """Delete the temporary files of :func:`write_atomic` that writers killed between write
+    and rename left in ``folder`` (not its subfolders). Call it only where no live writer can
+    own them, e.g. before a task redoes the work of a killed attempt."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return
+    for path in folder.iterdir():
+        if TEMPORARY.fullmatch(path.name) and path.is_file() and not path.is_symlink():
+            path.unlink(missing_ok=True)
 
 
 def _cannot_write(path: Path, error: OSError):

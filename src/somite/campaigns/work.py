@@ -4,8 +4,9 @@ What is on disk is the truth. A task whose ``done.json`` exists is finished and 
 an evolve or re-optimisation task finds its run directory as a killed run left it and resumes
 from its checkpoint (or starts again, before the first one), which for a seeded run gives the
 same rows as a run never interrupted; a reassembly or discovery is cheap and is simply done
-again. So a task killed anywhere, with its worker or with the whole campaign, is retried by
-running it again. Each task draws only from its own seed: the worker that runs it, and how
+again (after removing the temporary files of writes the killed attempt did not finish). So a
+task killed anywhere, with its worker or with the whole campaign, is retried by running it
+again. Each task draws only from its own seed: the worker that runs it, and how
 many threads it has, do not change a number.
 """
 
@@ -15,7 +16,7 @@ import json
 import time
 from pathlib import Path
 
-from .._io import write_atomic
+from .._io import remove_temporary, write_atomic
 from ..sim.config import CONTROL_HZ
 from .tasks import RUN_EXTRAS, run_steps
 
@@ -30,6 +31,9 @@ def run_task(directory: str, task: dict, threads: int = 1, *needed) -> dict:
     done = out / DONE
     if done.is_file():
         return json.loads(done.read_text(encoding="utf-8"))
+    # The campaign's lock keeps other campaigns out, and Dask runs a task once at a time: a
+    # temporary file here is a killed attempt's, and would stay beside the redone outputs.
+    remove_temporary(out)
     _threads(threads)
     start = time.perf_counter()
     steps = _RUNNERS[task["kind"]](Path(directory), out, task["options"])

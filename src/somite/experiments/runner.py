@@ -28,12 +28,12 @@ import hashlib
 import io
 import json
 import math
-import re
 from collections.abc import Callable
 from pathlib import Path
 
 from .._io import (
     CHECK_PREFIX,
+    TEMPORARY,
     check_output_folder,
     make_folder,
     read_json,
@@ -53,13 +53,9 @@ RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.j
 MANIFEST = "manifest.json"
 MANIFEST_FORMAT = "somite-run-manifest"
 """``manifest.json`` lists the files a run wrote: the only ones ``--force`` deletes."""
-_TEMPORARY = re.compile(r"\.(?P<name>.+)\.\d+\.[0-9a-f]{8}\.tmp")
-"""A temporary file of :func:`somite._io.write_atomic` (``.NAME.PID.RAND.tmp``)."""
-
-
 def _is_temporary(name: str) -> bool:
     """A temporary file of a run file's write, or of an output folder's check."""
-    match = _TEMPORARY.fullmatch(name)
+    match = TEMPORARY.fullmatch(name)
     return bool(match and match["name"] in (*RUN_FILES, MANIFEST)) or name.startswith(
         CHECK_PREFIX)
 

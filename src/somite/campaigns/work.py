@@ -6,8 +6,8 @@ from its checkpoint (or starts again, before the first one), which for a seeded 
 same rows as a run never interrupted; a reassembly or discovery is cheap and is simply done
 again (after removing the temporary files of writes the killed attempt did not finish). So a
 task killed anywhere, with its worker or with the whole campaign, is retried by running it
-again. Each task draws only from its own seed: the worker that runs it, and how
-many threads it has, do not change a number.
+again. Each task draws only from its own seed: the worker that runs it, and how many threads
+it has, do not change a number.
 """
 
 from __future__ import annotations

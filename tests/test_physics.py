@@ -34,8 +34,8 @@ def test_worm_at_rest_settles(worm):
 def test_dropped_robot_falls_with_g(biped):
     """Until a corner touches, the centre of mass follows semi-implicit Euler under g exactly
     (no drag), and the analytic fall with linear drag c, g/c (t - (1 - exp(-c t)) / c), to
-    within 1% with the default drag."""
-    for drag, tolerance in ((0.0, 1e-9), (0.1, 0.01)):
+    within 2% with the default drag."""
+    for drag, tolerance in ((0.0, 1e-9), (0.1, 0.02)):
         config = quiet(duration=1.0, drag=drag)
         _, trace = simulate([biped], [FLAT], [Zero()], config, record=True)
         touching = trace.contact[0].any(axis=1)
@@ -48,7 +48,8 @@ def test_dropped_robot_falls_with_g(biped):
             if drag == 0.0:
                 expected = y0 - config.gravity * dt * dt * n * (n + 1) / 2
                 assert abs(trace.com[0, k, 1] - expected) < tolerance
-            elif k >= 20:  # from there on the O(dt) error of the integrator is under 0.7%
+            elif k >= 20:  # from there on the O(dt) error of the integrator (4 substeps)
+                # is under 1.3%
                 t = k / CONTROL_HZ
                 fallen = y0 - trace.com[0, k, 1]
                 expected = config.gravity / drag * (t - (1 - np.exp(-drag * t)) / drag)

@@ -19,6 +19,11 @@ from ..limits import MAX_DURATION, at_most
 CONTROL_HZ = 60.0
 VOXEL_SIDE = 3.0
 CORNER_MASS = 0.36
+"""[kg] of one corner block (the original's density quirk: 1.44 kg a voxel)."""
+BLOCK_SIDE = 1.2
+"""[m] side of a corner block: the original's MASS_SIDE_LENGTH_RATIO 0.4 of the voxel side."""
+BLOCK_INERTIA = CORNER_MASS * 2 * BLOCK_SIDE**2 / 12
+"""[kg m^2] of one block about its centre."""
 
 LIDAR_PAPER = (-math.pi / 4, -math.pi / 8, 0.0, math.pi / 8, math.pi / 4)
 LIDAR_ORIGINAL = (-math.pi / 5, -math.pi / 10, 0.0, math.pi / 10, math.pi / 5)
@@ -50,19 +55,15 @@ class SimConfig:
     duration: float = 30.0
     transient: float = 5.0
     start_gap: float = 1.0
-    substeps: int = 8
-    spring_hz: float = 6.569
-    damping_ratio: float = 0.598
-    diagonal_stiffness: float = 1.45
+    substeps: int = 4
+    spring_hz: float = 8.022
+    damping_ratio: float = 0.565
     area_delta: float = 0.225
-    min_side_ratio: float = 0.708
-    min_diagonal_ratio: float = 0.5
     min_area_ratio: float = 0.3
     gravity: float = 9.8
     drag: float = 0.1
-    friction: float = 1.48
-    max_peak_depth: float = 0.066
-    contact_radius: float = 0.406
+    friction: float = 1.65
+    restitution: float = 0.087
     noise_sigma: float = 0.01
     lidar_range: float = 10.0
     lidar_angles: tuple[float, ...] = LIDAR_PAPER
@@ -87,21 +88,21 @@ class SimConfig:
         if self.transient < 0:
             raise bad("transient", self.transient, "must be zero or positive")
         _positive_int(self, "substeps", "touch_window", "velocity_window")
-        for name in ("spring_hz", "lidar_range", "velocity_max", "gravity", "diagonal_stiffness"):
+        for name in ("spring_hz", "lidar_range", "velocity_max", "gravity"):
             if not getattr(self, name) > 0:
                 raise bad(name, getattr(self, name), "must be positive")
         non_negative = (
-            "start_gap", "damping_ratio", "drag", "friction", "noise_sigma", "max_peak_depth",
-            "contact_radius",
+            "start_gap", "damping_ratio", "drag", "friction", "noise_sigma", "restitution",
         )
         for name in non_negative:
             if getattr(self, name) < 0:
                 raise bad(name, getattr(self, name), "must be zero or positive")
         if not 0 <= self.area_delta < 1:
             raise bad("area_delta", self.area_delta, "must be in [0, 1)")
-        for name in ("min_side_ratio", "min_diagonal_ratio", "min_area_ratio"):
-            if not 0 < getattr(self, name) < 1:
-                raise bad(name, getattr(self, name), "must be in (0, 1)")
+        if not 0 < self.min_area_ratio < 1:
+            raise bad("min_area_ratio", self.min_area_ratio, "must be in (0, 1)")
+        if self.restitution > 1:
+            raise bad("restitution", self.restitution, "must be at most 1")
         if len(self.lidar_angles) != 5:
             raise bad("lidar_angles", self.lidar_angles, "a lidar has exactly 5 rays")
         for name, allowed in (
@@ -173,19 +174,15 @@ class Params(NamedTuple):
 
     dt: float  # [s] one physics substep
     substeps: int  # physics substeps per control step
-    stiffness: float  # [N/m] of one side spring (two corner masses, ``spring_hz``)
-    damping: float  # [N s/m] of one side spring (``damping_ratio``)
+    stiffness: float  # [N/(m kg)] of a spring per kg of its effective mass (``spring_hz``)
+    damping: float  # [N s/(m kg)] the same for damping (``damping_ratio``)
     gravity: float  # [m/s^2]
     drag: float  # [1/s]
     friction: float  # Coulomb coefficient
+    restitution: float  # of impacts faster than physics.RESTITUTION_SPEED
     contract: float  # rest-length scale at actuation +1
     expand: float  # rest-length scale at actuation -1
-    diagonal: float  # stiffness of a diagonal over a side's
-    min_side: float  # hard lower limit of a side over its rest length
-    min_diagonal: float  # the same for a diagonal
     min_area: float  # lower limit of a voxel's signed area over its rest area
-    peak_depth: float  # [m] how far a terrain vertex may sink into an outer side
-    radius: float  # [m] of the contact disc at each corner
     noise: float  # sensor noise sigma
     lidar_range: float  # [m]
     lidar_frame: int  # FRAMES index
@@ -203,23 +200,18 @@ class Params(NamedTuple):
 def pack_params(config: SimConfig) -> Params:
     """The kernels' view of ``config``."""
     omega = 2 * math.pi * config.spring_hz
-    reduced_mass = CORNER_MASS / 2  # two corner masses joined by one spring
     return Params(
         dt=1.0 / CONTROL_HZ / config.substeps,
         substeps=config.substeps,
-        stiffness=reduced_mass * omega**2,
-        damping=2 * reduced_mass * config.damping_ratio * omega,
+        stiffness=omega**2,
+        damping=2 * config.damping_ratio * omega,
         gravity=float(config.gravity),
         drag=float(config.drag),
         friction=float(config.friction),
+        restitution=float(config.restitution),
         contract=math.sqrt(1 - config.area_delta),
         expand=math.sqrt(1 + config.area_delta),
-        diagonal=float(config.diagonal_stiffness),
-        min_side=float(config.min_side_ratio),
-        min_diagonal=float(config.min_diagonal_ratio),
         min_area=float(config.min_area_ratio),
-        peak_depth=float(config.max_peak_depth),
-        radius=float(config.contact_radius),
         noise=float(config.noise_sigma),
         lidar_range=float(config.lidar_range),
         lidar_frame=FRAMES.index(config.lidar_frame),

@@ -1,11 +1,14 @@
-"""Physics of one robot: damped springs, gravity, drag, hard limits and terrain contact.
+"""Physics of one robot: rigid corner bodies joined by damped springs, rope limits, gravity,
+drag and terrain contact.
 
-Every function here works on one robot's arrays (points ``pos``, ``vel`` of shape (P, 2)) and
-is called from the episode loop of :mod:`somite.tasks.episode`; the batch kernel runs that loop
-for each robot on its own thread. The integrator is semi-implicit (symplectic) Euler: velocities
-first from the forces, then positions from the new velocities, then the hard constraints
-(length limits, each voxel's orientation, contact of the outline with the terrain) act on
-positions and velocities. The contact model and its fitted parameters: README, "The
+Every function here works on one robot's arrays and is called from the episode loop of
+:mod:`somite.tasks.episode`; the batch kernel runs that loop for each robot on its own thread.
+A robot's state is one rigid body per lattice point (the voxels' corner blocks that meet there,
+welded, as in the original): ``pos`` (P, 3) holds each body's centre of mass and angle, ``vel``
+(P, 3) its velocity and angular velocity. The integrator is semi-implicit (symplectic) Euler:
+velocities first from the forces and torques, then positions from the new velocities, then the
+hard constraints (rope limits, each voxel's orientation, contact of the blocks with the
+terrain) act on positions and velocities. The model and its fitted parameters: README, "The
 simulator"; BENCHMARKS.md, "Fidelity".
 """
 
@@ -14,67 +17,97 @@ from __future__ import annotations
 import math
 
 from .._jit import njit
+from .config import BLOCK_SIDE, VOXEL_SIDE
 
 CONTACT_TOLERANCE = 0.01
-"""A corner within this height [m] of the ground counts as touching it."""
-MAX_SIDE_DEPTH = 1.5
-"""Terrain vertices deeper than this [m] behind an outer side belong to another side."""
+"""An outline vertex within this height [m] of the ground counts as touching it."""
+RESTITUTION_SPEED = 1.0
+"""[m/s] Slower impacts do not bounce (the original's solver: dyn4j's velocity threshold)."""
+HALF_BLOCK = BLOCK_SIDE / 2
+BLOCK_REACH = HALF_BLOCK * math.sqrt(2.0)
+"""Farthest a point of a block is from its centre [m]."""
 
 
-@njit
-def rest_length_factor(actuation: float, contract: float, expand: float) -> float:
-    """Rest-length scale of a voxel's springs: ``contract`` at a = +1, ``expand`` at a = -1."""
-    a = min(1.0, max(-1.0, actuation))
-    if a >= 0.0:
-        return 1.0 - (1.0 - contract) * a
-    return 1.0 + (expand - 1.0) * (-a)
+@njit(inline="always")
+def spring_length(kind: int, scale: float) -> float:
+    """Length [m] of a spring of group ``kind`` in a voxel whose side is ``scale`` times the
+    rest side (original-system.md section 1.2): the side springs span the gap between two
+    blocks, the cross springs join one block's outer corner to the next one's inner corner,
+    the central springs join the centres of opposite blocks."""
+    gap = VOXEL_SIDE * scale - 2.0 * BLOCK_SIDE
+    if kind == 0:
+        return gap
+    if kind == 1:
+        return math.sqrt(BLOCK_SIDE * BLOCK_SIDE + gap * gap)
+    return (VOXEL_SIDE * scale - BLOCK_SIDE) * math.sqrt(2.0)
 
 
 @njit(_nrt=False)
-def set_rest_lengths(n_voxels, n_springs, owners, rest0, actuation, contract, expand, factor,
-                     rest):
-    """``rest``: the rest length of each spring for the voxels' current ``actuation`` (V,), the
-    mean over its owners; ``factor`` (V,) is work space. Arrays, not the :class:`Robot` and
-    :class:`Scratch` tuples: this function is not inlined, and passing the tuples costs 1-2% of
-    the kernel's time."""
-    for v in range(n_voxels):
-        factor[v] = rest_length_factor(actuation[v], contract, expand)
+def set_rest_lengths(n_springs, kind, owner, actuation, contract, expand, rest):
+    """``rest``: the rest length of each spring for its voxel's ``actuation`` (V,): from its
+    group's rest length towards its length in a voxel of side ``contract`` x 3 m at +1, of
+    ``expand`` x 3 m at -1, linearly. Arrays, not the :class:`Robot` tuple: this function is
+    not inlined, and passing the tuples costs 1-2% of the kernel's time."""
     for s in range(n_springs):
-        f = factor[owners[s, 0]]
-        if owners[s, 1] >= 0:
-            f = 0.5 * (f + factor[owners[s, 1]])
-        rest[s] = rest0[s] * f
+        a = min(1.0, max(-1.0, actuation[owner[s]]))
+        k = kind[s]
+        r0 = spring_length(k, 1.0)
+        if a >= 0.0:
+            rest[s] = r0 - (r0 - spring_length(k, contract)) * a
+        else:
+            rest[s] = r0 + (spring_length(k, expand) - r0) * (-a)
+
+
+@njit(inline="always")
+def turn(n_points, pos, cos, sin):
+    """Each body's rotation for this substep."""
+    for p in range(n_points):
+        cos[p] = math.cos(pos[p, 2])
+        sin[p] = math.sin(pos[p, 2])
+
+
+@njit(inline="always")
+def turned(p, ox, oy, cos, sin):
+    """Offset (ox, oy) in body p's frame, turned into the world's."""
+    return cos[p] * ox - sin[p] * oy, sin[p] * ox + cos[p] * oy
 
 
 @njit(inline="always")
 def integrate(robot, scratch, pos, vel, params):
     """One semi-implicit Euler step of springs, gravity and drag.
 
-    ``strength`` scales each spring's stiffness and damping: the number of voxels owning a side
-    (1 or 2: parallel springs add up), ``diagonal_stiffness`` for a diagonal.
-    ``scratch.force`` must hold zeros on entry and holds zeros on exit; ``scratch.dx`` ..
-    ``scratch.fy`` are (S,) work arrays, separate so that the compiler knows they do not
+    A spring's stiffness and damping are ``params.stiffness`` and ``params.damping`` times its
+    effective mass (``robot.spring_mass``), as the original sets a joint's from its frequency
+    and damping ratio. ``scratch.force`` must hold zeros on entry and holds zeros on exit;
+    ``scratch.cos`` and ``scratch.sin`` must hold the bodies' rotations on entry, and hold the
+    new ones on exit. The springs go in three passes (gather, forces, scatter) so that the
+    middle one has no branch and no indirect access, and compiles to SIMD code; ``scratch.rax``
+    .. ``scratch.tb`` are (S,) work arrays, separate so that the compiler knows they do not
     overlap.
-    The springs go in three passes (gather, forces, scatter) so that the middle one has no
-    branch and no indirect access, and compiles to SIMD code. It also counts the springs
-    shorter than their ``min_length``; only when there are any (rarely) does the hard limit
-    (:func:`enforce_min_lengths`) run, before the velocities change.
     """
     n_points = robot.n_points
     n_springs = robot.n_springs
     ends = robot.ends
-    strength = robot.strength
-    min_length = robot.min_length
-    mass = robot.mass
+    anchor = robot.anchor
+    spring_mass = robot.spring_mass
     inv_mass = robot.inv_mass
+    inv_inertia = robot.inv_inertia
     rest = scratch.rest
     force = scratch.force
+    cos = scratch.cos
+    sin = scratch.sin
+    raxs = scratch.rax
+    rays = scratch.ray
+    rbxs = scratch.rbx
+    rbys = scratch.rby
     dxs = scratch.dx
     dys = scratch.dy
-    dvx = scratch.dvx
-    dvy = scratch.dvy
+    dvxs = scratch.dvx
+    dvys = scratch.dvy
     fxs = scratch.fx
     fys = scratch.fy
+    tas = scratch.ta
+    tbs = scratch.tb
     dt = params.dt
     k = params.stiffness
     c = params.damping
@@ -83,79 +116,112 @@ def integrate(robot, scratch, pos, vel, params):
     for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
-        dxs[s] = pos[b, 0] - pos[a, 0]
-        dys[s] = pos[b, 1] - pos[a, 1]
-        dvx[s] = vel[b, 0] - vel[a, 0]
-        dvy[s] = vel[b, 1] - vel[a, 1]
-    n_short = 0
+        rax, ray = turned(a, anchor[s, 0], anchor[s, 1], cos, sin)
+        rbx, rby = turned(b, anchor[s, 2], anchor[s, 3], cos, sin)
+        raxs[s] = rax
+        rays[s] = ray
+        rbxs[s] = rbx
+        rbys[s] = rby
+        dxs[s] = pos[b, 0] + rbx - pos[a, 0] - rax
+        dys[s] = pos[b, 1] + rby - pos[a, 1] - ray
+        dvxs[s] = vel[b, 0] - vel[b, 2] * rby - vel[a, 0] + vel[a, 2] * ray
+        dvys[s] = vel[b, 1] + vel[b, 2] * rbx - vel[a, 1] - vel[a, 2] * rax
     for s in range(n_springs):
-        length = math.sqrt(dxs[s] * dxs[s] + dys[s] * dys[s])
-        n_short += length < min_length[s]
+        dx = dxs[s]
+        dy = dys[s]
+        length = math.sqrt(dx * dx + dy * dy)
         inv = 1.0 / length
-        closing = (dvx[s] * dxs[s] + dvy[s] * dys[s]) * inv
-        f = strength[s] * (k * (length - rest[s]) + c * closing) * inv
-        fxs[s] = f * dxs[s]
-        fys[s] = f * dys[s]
-    if n_short > 0:
-        enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel)
+        closing = (dvxs[s] * dx + dvys[s] * dy) * inv
+        f = spring_mass[s] * (k * (length - rest[s]) + c * closing) * inv
+        fx = f * dx
+        fy = f * dy
+        fxs[s] = fx
+        fys[s] = fy
+        tas[s] = raxs[s] * fy - rays[s] * fx
+        tbs[s] = rbxs[s] * fy - rbys[s] * fx
     for s in range(n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
         force[a, 0] += fxs[s]
         force[a, 1] += fys[s]
+        force[a, 2] += tas[s]
         force[b, 0] -= fxs[s]
         force[b, 1] -= fys[s]
+        force[b, 2] -= tbs[s]
     for p in range(n_points):
         step = inv_mass[p] * dt
-        vel[p, 0] += (force[p, 0] - drag * mass[p] * vel[p, 0]) * step
-        vel[p, 1] += (force[p, 1] - drag * mass[p] * vel[p, 1]) * step - g * dt
+        vel[p, 0] += force[p, 0] * step - drag * vel[p, 0] * dt
+        vel[p, 1] += force[p, 1] * step - drag * vel[p, 1] * dt - g * dt
+        vel[p, 2] += force[p, 2] * inv_inertia[p] * dt - drag * vel[p, 2] * dt
         pos[p, 0] += vel[p, 0] * dt
         pos[p, 1] += vel[p, 1] * dt
+        pos[p, 2] += vel[p, 2] * dt
+        cos[p] = math.cos(pos[p, 2])
+        sin[p] = math.sin(pos[p, 2])
         force[p, 0] = 0.0
         force[p, 1] = 0.0
+        force[p, 2] = 0.0
+
+
+@njit(inline="always")
+def _shift(p, rx, ry, nx, ny, amount, inv_mass, inv_inertia, state):
+    """Apply ``amount`` along (nx, ny) at offset (rx, ry) of body p to ``state`` (a position
+    correction or an impulse: the same arithmetic)."""
+    state[p, 0] += nx * amount * inv_mass[p]
+    state[p, 1] += ny * amount * inv_mass[p]
+    state[p, 2] += (rx * ny - ry * nx) * amount * inv_inertia[p]
 
 
 @njit(_nrt=False)
-def push_apart(a, b, length, limit, dx, dy, inv_mass, pos, vel):
-    """Move points a, b apart (mass-weighted) to distance ``limit``; stop their closing."""
+def keep_apart(a, b, rax, ray, rbx, rby, limit, inv_mass, inv_inertia, pos, vel, cos, sin):
+    """Push the anchors (offsets ``ra``, ``rb`` in the world frame) of bodies a and b apart to
+    distance ``limit`` and stop their closing, with the bodies' masses and inertias."""
+    dx = pos[b, 0] + rbx - pos[a, 0] - rax
+    dy = pos[b, 1] + rby - pos[a, 1] - ray
+    length = math.sqrt(dx * dx + dy * dy)
     if length < 1e-9:
         dx = 0.0
         dy = 1.0
         length = 1.0
     nx = dx / length
     ny = dy / length
-    wa = inv_mass[a]
-    wb = inv_mass[b]
-    share = (limit - length) / (wa + wb)
-    pos[a, 0] -= nx * share * wa
-    pos[a, 1] -= ny * share * wa
-    pos[b, 0] += nx * share * wb
-    pos[b, 1] += ny * share * wb
-    closing = (vel[b, 0] - vel[a, 0]) * nx + (vel[b, 1] - vel[a, 1]) * ny
+    rna = rax * ny - ray * nx
+    rnb = rbx * ny - rby * nx
+    w = (inv_mass[a] + inv_mass[b] + rna * rna * inv_inertia[a] + rnb * rnb * inv_inertia[b])
+    push = (limit - length) / w
+    _shift(a, rax, ray, nx, ny, -push, inv_mass, inv_inertia, pos)
+    _shift(b, rbx, rby, nx, ny, push, inv_mass, inv_inertia, pos)
+    dvx = vel[b, 0] - vel[b, 2] * rby - vel[a, 0] + vel[a, 2] * ray
+    dvy = vel[b, 1] + vel[b, 2] * rbx - vel[a, 1] - vel[a, 2] * rax
+    closing = dvx * nx + dvy * ny
     if closing < 0.0:
-        impulse = closing / (wa + wb)
-        vel[a, 0] += nx * impulse * wa
-        vel[a, 1] += ny * impulse * wa
-        vel[b, 0] -= nx * impulse * wb
-        vel[b, 1] -= ny * impulse * wb
+        _shift(a, rax, ray, nx, ny, closing / w, inv_mass, inv_inertia, vel)
+        _shift(b, rbx, rby, nx, ny, -closing / w, inv_mass, inv_inertia, vel)
+    for p in (a, b):
+        cos[p] = math.cos(pos[p, 2])
+        sin[p] = math.sin(pos[p, 2])
 
 
-@njit(_nrt=False)
-def enforce_min_lengths(n_springs, ends, min_length, inv_mass, pos, vel):
-    """Hard limit: no side shorter than ``min_side_ratio`` of its rest length, no diagonal
-    than ``min_diagonal_ratio``, so no controller can collapse a voxel (inversion is
-    :func:`keep_orientation`'s). Also run after the last substep of each control step, so that
-    what is sensed and recorded always obeys the limit. Arrays, not the :class:`Robot` tuple,
-    as for :func:`set_rest_lengths`."""
-    for s in range(n_springs):
-        a = ends[s, 0]
-        b = ends[s, 1]
-        dx = pos[b, 0] - pos[a, 0]
-        dy = pos[b, 1] - pos[a, 1]
-        limit = min_length[s]
-        d2 = dx * dx + dy * dy
-        if d2 < limit * limit:
-            push_apart(a, b, math.sqrt(d2), limit, dx, dy, inv_mass, pos, vel)
+@njit(inline="always")
+def keep_ropes(robot, scratch, pos, vel):
+    """Hard limit: the centres of a voxel's adjacent blocks stay at least one block side apart,
+    so the blocks never overlap and no controller can collapse a voxel (the original's rope
+    joints; inversion is :func:`keep_orientation`'s)."""
+    ends = robot.rope_ends
+    anchor = robot.rope_anchor
+    cos = scratch.cos
+    sin = scratch.sin
+    limit2 = BLOCK_SIDE * BLOCK_SIDE
+    for r in range(robot.n_ropes):
+        a = ends[r, 0]
+        b = ends[r, 1]
+        rax, ray = turned(a, anchor[r, 0], anchor[r, 1], cos, sin)
+        rbx, rby = turned(b, anchor[r, 2], anchor[r, 3], cos, sin)
+        dx = pos[b, 0] + rbx - pos[a, 0] - rax
+        dy = pos[b, 1] + rby - pos[a, 1] - ray
+        if dx * dx + dy * dy < limit2:
+            keep_apart(a, b, rax, ray, rbx, rby, BLOCK_SIDE, robot.inv_mass, robot.inv_inertia,
+                       pos, vel, cos, sin)
 
 
 @njit(inline="always")
@@ -170,21 +236,8 @@ def highest_ground(xs, ys, n, first, hi_x) -> float:
 
 
 @njit(inline="always")
-def extent(n_points, pos):
-    """Leftmost x, rightmost x and lowest y of a robot's corners."""
-    lo_x = pos[0, 0]
-    hi_x = pos[0, 0]
-    lo_y = pos[0, 1]
-    for p in range(1, n_points):
-        lo_x = min(lo_x, pos[p, 0])
-        hi_x = max(hi_x, pos[p, 0])
-        lo_y = min(lo_y, pos[p, 1])
-    return lo_x, hi_x, lo_y
-
-
-@njit(inline="always")
 def segment_near(xs, n, x, guess) -> int:
-    """Index of the segment under x, walking from ``guess`` (a corner moves little per step)."""
+    """Index of the segment under x, walking from ``guess`` (a point moves little per step)."""
     i = min(max(guess, 0), n - 2)
     while i > 0 and x < xs[i]:
         i -= 1
@@ -202,34 +255,94 @@ def ground_height(xs, ys, n, x, guess) -> float:
 
 
 @njit(inline="always")
-def _bounce_off(p, vel, nx, ny, mu):
-    """Remove point p's velocity into the surface of normal (nx, ny); Coulomb friction."""
-    vn = vel[p, 0] * nx + vel[p, 1] * ny
-    if vn < 0.0:
-        vel[p, 0] -= vn * nx
-        vel[p, 1] -= vn * ny
-        tx = ny
-        ty = -nx
-        vt = vel[p, 0] * tx + vel[p, 1] * ty
-        cut = min(abs(vt), -mu * vn)
-        if vt < 0.0:
-            cut = -cut
-        vel[p, 0] -= cut * tx
-        vel[p, 1] -= cut * ty
+def world_point(p, ox, oy, pos, cos, sin):
+    """World position of offset (ox, oy) of body p."""
+    return (pos[p, 0] + cos[p] * ox - sin[p] * oy, pos[p, 1] + sin[p] * ox + cos[p] * oy)
+
+
+@njit(_nrt=False)
+def touch(p, x, y, nx, ny, depth, mu, restitution, inv_mass, inv_inertia, pos, vel, dpos, dvel,
+          hits):
+    """Body p's point (x, y) is ``depth`` inside the ground, whose surface normal there is
+    (nx, ny): add to ``dpos``, ``dvel`` (P, 3) what pushes the body out along the normal and
+    what the ground's impulse does to an approaching point, all through the body's mass and
+    inertia, as if this were its only contact; count them in ``hits`` (P, 2).
+
+    The impulse stops the point's approach (bouncing back ``restitution`` of an approach
+    faster than RESTITUTION_SPEED) and, when Coulomb friction can (within ``mu`` times the
+    normal impulse), its sliding; otherwise it slides, with friction mu times the normal
+    impulse, the way the impulse that would have stopped it points. The normal and the
+    friction impulse are solved together: each turns the body, which moves the point along the
+    other's direction too. :func:`settle` then applies each body's mean. Contacts computed
+    from one state and averaged do not depend on the order in which they are found, so a robot
+    and its mirror image move as mirror images.
+    """
+    rx = x - pos[p, 0]
+    ry = y - pos[p, 1]
+    tx = ny
+    ty = -nx
+    rn = rx * ny - ry * nx
+    rt = rx * ty - ry * tx
+    # How an impulse along the normal / tangent changes the point's velocity along each.
+    k_nn = inv_mass[p] + rn * rn * inv_inertia[p]
+    k_tt = inv_mass[p] + rt * rt * inv_inertia[p]
+    k_nt = rn * rt * inv_inertia[p]
+    _shift(p, rx, ry, nx, ny, depth / k_nn, inv_mass, inv_inertia, dpos)
+    hits[p, 0] += 1.0
+    vx = vel[p, 0] - vel[p, 2] * ry
+    vy = vel[p, 1] + vel[p, 2] * rx
+    vn = vx * nx + vy * ny
+    if vn >= 0.0:
+        return
+    vt = vx * tx + vy * ty
+    bounce = restitution if vn < -RESTITUTION_SPEED else 0.0
+    want_n = -(1.0 + bounce) * vn
+    det = k_nn * k_tt - k_nt * k_nt
+    jn = (k_tt * want_n + k_nt * vt) / det  # the point sticks
+    jt = (-k_nn * vt - k_nt * want_n) / det
+    if jn < 0.0 or abs(jt) > mu * jn:
+        # It slides: friction at its Coulomb limit, the way the impulse that would have
+        # stopped it pushes. (The sliding before the impulse can point the other way, or be
+        # zero.) Then k_nn + side * mu * k_nt > 0: were it not, the point would have stuck.
+        side = 1.0 if jt > 0.0 else -1.0
+        jn = want_n / (k_nn + side * mu * k_nt)
+        jt = side * mu * jn
+    _shift(p, rx, ry, nx, ny, jn, inv_mass, inv_inertia, dvel)
+    _shift(p, rx, ry, tx, ty, jt, inv_mass, inv_inertia, dvel)
+    hits[p, 1] += 1.0
 
 
 @njit(inline="always")
-def ground_contact(robot, ground, scratch, pos, vel, first, hi_x, params):
-    """Keep the robot's corners, rounded to discs of radius ``contact_radius``, out of the
-    ground; no bounce, Coulomb friction.
+def settle(n_points, dpos, dvel, hits, pos, vel, cos, sin):
+    """Apply to each body the mean of its contacts' corrections (:func:`touch`): of the push
+    over the contacts found, of the impulse over the approaching ones; update the body's
+    rotation, and clear them."""
+    for p in range(n_points):
+        if hits[p, 0] > 0.0:
+            share = 1.0 / hits[p, 0]
+            for j in range(3):
+                pos[p, j] += dpos[p, j] * share
+                dpos[p, j] = 0.0
+            if hits[p, 1] > 0.0:
+                share = 1.0 / hits[p, 1]
+                for j in range(3):
+                    vel[p, j] += dvel[p, j] * share
+                    dvel[p, j] = 0.0
+            hits[p, 0] = hits[p, 1] = 0.0
+            cos[p] = math.cos(pos[p, 2])
+            sin[p] = math.sin(pos[p, 2])
 
-    ``scratch.segment`` remembers each corner's segment from the previous substep; ``first``
-    is the segment under the robot's leftmost point and ``hi_x`` its right end [m]. When a
-    corner is further, horizontally, from both ends of its segment than the disc's radius and
-    its depth, no other segment can be nearer, so it goes straight out along the segment's
-    normal (the usual case). Otherwise the two neighbours on
-    each side are searched for the nearest ground point, so that a disc rolls over a crest and
-    steep walls and step risers push sideways, not up.
+
+@njit(inline="always")
+def tip_contact(robot, ground, scratch, pos, vel, first, hi_x, params):
+    """Keep the outline vertices of the robot's blocks out of the ground.
+
+    ``scratch.segment`` remembers each vertex's segment from the previous substep; ``first``
+    is the segment under the robot's leftmost point and ``hi_x`` its right end [m]. A vertex
+    below its segment, further horizontally from the segment's ends than it is deep, goes
+    straight out along the segment's normal (the usual case); otherwise the two neighbours on
+    each side are searched for the nearest ground point, so that steep walls and step risers
+    push sideways, not up. Found now, applied by :func:`settle` (:func:`touch`).
     """
     xs = ground.xs
     ys = ground.ys
@@ -238,23 +351,26 @@ def ground_contact(robot, ground, scratch, pos, vel, first, hi_x, params):
     n = ground.n
     contact = scratch.contact
     segment = scratch.segment
-    mu = params.friction
-    radius = params.radius
-    clear = highest_ground(xs, ys, n, first, hi_x) + radius + CONTACT_TOLERANCE
-    for p in range(robot.n_points):
-        x = pos[p, 0]
-        y = pos[p, 1]
+    cos = scratch.cos
+    sin = scratch.sin
+    clear = highest_ground(xs, ys, n, first, hi_x) + CONTACT_TOLERANCE
+    for f in range(robot.n_tips):
+        p = robot.tip_body[f]
+        x, y = world_point(p, robot.tip_offset[f, 0], robot.tip_offset[f, 1], pos, cos, sin)
         if y >= clear:
-            contact[p] = False
             continue
-        i = segment_near(xs, n, x, segment[p])
-        segment[p] = i
+        i = segment_near(xs, n, x, segment[f])
+        segment[f] = i
         t = (x - xs[i]) / (xs[i + 1] - xs[i])
         gap = y - (ys[i] + t * (ys[i + 1] - ys[i]))
+        if gap < CONTACT_TOLERANCE:
+            contact[p] = True
+        if gap >= 0.0:
+            continue
         nx = nxs[i]
         ny = nys[i]
-        if min(x - xs[i], xs[i + 1] - x) >= max(radius, -gap):
-            depth = radius - ((x - xs[i]) * nx + (y - ys[i]) * ny)
+        if min(x - xs[i], xs[i + 1] - x) >= -gap:
+            depth = -((x - xs[i]) * nx + (y - ys[i]) * ny)
         else:
             best = 1e300
             cx = cy = 0.0
@@ -270,122 +386,83 @@ def ground_contact(robot, ground, scratch, pos, vel, first, hi_x, params):
                     best = d2
                     cx = qx
                     cy = qy
-                    nx = nxs[j]
-                    ny = nys[j]
-            distance = math.sqrt(best)
-            if distance > 1e-9:
-                # Out of the ground along the line from the nearest ground point (towards the
-                # corner when it is above ground, away from it when below).
-                side = 1.0 if gap >= 0.0 else -1.0
-                nx = side * (x - cx) / distance
-                ny = side * (y - cy) / distance
-                depth = radius - side * distance
-            else:
-                depth = radius
-        contact[p] = depth > -CONTACT_TOLERANCE
-        if depth <= 0.0:
-            continue
-        pos[p, 0] = x + depth * nx
-        pos[p, 1] = y + depth * ny
-        _bounce_off(p, vel, nx, ny, mu)
+            depth = math.sqrt(best)
+            if depth < 1e-9:
+                continue
+            nx = (cx - x) / depth
+            ny = (cy - y) / depth
+        if depth > 0.0:
+            touch(p, x, y, nx, ny, depth, params.friction, params.restitution, robot.inv_mass,
+                  robot.inv_inertia, pos, vel, scratch.dpos, scratch.dvel, scratch.hits)
 
 
 @njit(inline="always")
-def side_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params):
-    """Keep terrain vertices out of the robot's outer sides; Coulomb friction, no bounce.
+def vertex_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params):
+    """Keep terrain vertices out of the robot's outline blocks; the block leaves through its
+    edge nearest to the vertex (:func:`touch`: found now, applied by :func:`settle`).
 
-    Together with :func:`ground_contact` (corners against terrain segments) this makes the
-    robot's whole outline a solid surface: it rests on a crest with a side, not only with a
-    point, as the original's rigid corner squares do. A vertex may sink ``max_peak_depth``
-    into a side before it is pushed out. A vertex behind several sides belongs to the shallowest
-    one only. The push and the impulses act at the contact point, a fraction
-    ``lam`` along side a -> b, shared by a and b as a rigid side would share them (each end
-    in proportion to how much it moves that point and to its inverse mass), so that they
-    exert no torque about the contact point.
+    Together with :func:`tip_contact` (block corners against terrain segments) this makes the
+    blocks solid: a robot rests on a crest with a block's face, not only with a corner.
     """
-    boundary = robot.boundary
-    inv_mass = robot.inv_mass
-    contact = scratch.contact
     xs = ground.xs
     ys = ground.ys
     n = ground.n
-    limit = params.peak_depth
-    mu = params.friction
-    radius = params.radius
-    reach = MAX_SIDE_DEPTH + radius
+    cos = scratch.cos
+    sin = scratch.sin
     for i in range(first + 1, n - 1):
         tx = xs[i]
-        if tx > hi_x + radius:
+        if tx > hi_x:
             break
         ty = ys[i]
-        if ty <= lo_y - radius:
-            continue  # below every corner's disc: it cannot touch the robot
-        side = -1
-        depth = 0.0
-        lam = 0.0
-        for q in range(robot.n_boundary):
-            a = boundary[q, 0]
-            b = boundary[q, 1]
-            # A vertex that can count for this side lies in its bounding box grown by reach:
-            # two comparisons spare most sides the division and the square root.
-            if (tx < min(pos[a, 0], pos[b, 0]) - reach or tx > max(pos[a, 0], pos[b, 0]) + reach
-                    or ty < min(pos[a, 1], pos[b, 1]) - reach
-                    or ty > max(pos[a, 1], pos[b, 1]) + reach):
+        if ty <= lo_y:
+            continue  # below every outline vertex: it cannot be inside a block
+        for q in range(robot.n_blocks):
+            p = robot.block_body[q]
+            bx, by = world_point(p, robot.block_offset[q, 0], robot.block_offset[q, 1], pos,
+                                 cos, sin)
+            if abs(tx - bx) >= BLOCK_REACH or abs(ty - by) >= BLOCK_REACH:
                 continue
-            ex = pos[b, 0] - pos[a, 0]
-            ey = pos[b, 1] - pos[a, 1]
-            length2 = ex * ex + ey * ey
-            at = ((tx - pos[a, 0]) * ex + (ty - pos[a, 1]) * ey) / length2
-            if at <= 0.0 or at >= 1.0:
+            lx = cos[p] * (tx - bx) + sin[p] * (ty - by)
+            ly = -sin[p] * (tx - bx) + cos[p] * (ty - by)
+            if abs(lx) >= HALF_BLOCK or abs(ly) >= HALF_BLOCK:
                 continue
-            # How deep the vertex is behind the side's outward normal (ey, -ex) / length.
-            d = radius - ((tx - pos[a, 0]) * ey - (ty - pos[a, 1]) * ex) / math.sqrt(length2)
-            if d <= -CONTACT_TOLERANCE or d >= reach:
-                continue
-            if side < 0 or d < depth:
-                side = q
-                depth = d
-                lam = at
-        if side < 0 or depth <= limit - CONTACT_TOLERANCE:
-            continue
-        a = boundary[side, 0]
-        b = boundary[side, 1]
-        contact[a] = True
-        contact[b] = True
-        if depth <= limit:
-            continue
-        ex = pos[b, 0] - pos[a, 0]
-        ey = pos[b, 1] - pos[a, 1]
-        inv = 1.0 / math.sqrt(ex * ex + ey * ey)
-        tx_ = ex * inv
-        ty_ = ey * inv
-        nx = ty_  # outward normal
-        ny = -tx_
-        wa = (1.0 - lam) * inv_mass[a]
-        wb = lam * inv_mass[b]
-        share = 1.0 / ((1.0 - lam) * wa + lam * wb)  # effective mass at the contact point
-        push = (depth - limit) * share
-        pos[a, 0] -= nx * push * wa
-        pos[a, 1] -= ny * push * wa
-        pos[b, 0] -= nx * push * wb
-        pos[b, 1] -= ny * push * wb
-        # The side's velocity at the contact point, along the normal into the vertex (> 0
-        # closes) and along the side.
-        vx = (1.0 - lam) * vel[a, 0] + lam * vel[b, 0]
-        vy = (1.0 - lam) * vel[a, 1] + lam * vel[b, 1]
-        vn = vx * nx + vy * ny
-        if vn <= 0.0:
-            continue
-        vt = vx * tx_ + vy * ty_
-        cut = min(abs(vt), mu * vn)
-        if vt < 0.0:
-            cut = -cut
-        jx = (vn * nx + cut * tx_) * share
-        jy = (vn * ny + cut * ty_) * share
-        vel[a, 0] -= jx * wa
-        vel[a, 1] -= jy * wa
-        vel[b, 0] -= jx * wb
-        vel[b, 1] -= jy * wb
+            # The block moves away from the vertex, through the nearest edge.
+            depth = HALF_BLOCK - lx
+            ex = -1.0
+            ey = 0.0
+            if HALF_BLOCK + lx < depth:
+                depth = HALF_BLOCK + lx
+                ex = 1.0
+                ey = 0.0
+            if HALF_BLOCK - ly < depth:
+                depth = HALF_BLOCK - ly
+                ex = 0.0
+                ey = -1.0
+            if HALF_BLOCK + ly < depth:
+                depth = HALF_BLOCK + ly
+                ex = 0.0
+                ey = 1.0
+            scratch.contact[p] = True
+            touch(p, tx, ty, cos[p] * ex - sin[p] * ey, sin[p] * ex + cos[p] * ey, depth,
+                  params.friction, params.restitution, robot.inv_mass, robot.inv_inertia, pos,
+                  vel, scratch.dpos, scratch.dvel, scratch.hits)
+
+
+@njit(inline="always")
+def tip_extent(robot, pos, cos, sin):
+    """Leftmost x, rightmost x and lowest y of the robot's outline vertices."""
+    lo_x = hi_x = lo_y = 0.0
+    for f in range(robot.n_tips):
+        x, y = world_point(robot.tip_body[f], robot.tip_offset[f, 0], robot.tip_offset[f, 1],
+                           pos, cos, sin)
+        if f == 0:
+            lo_x = hi_x = x
+            lo_y = y
+        else:
+            lo_x = min(lo_x, x)
+            hi_x = max(hi_x, x)
+            lo_y = min(lo_y, y)
+    return lo_x, hi_x, lo_y
 
 
 @njit(inline="always")
@@ -395,35 +472,48 @@ def voxel_corners(corners, v):
 
 
 @njit(inline="always")
-def keep_orientation(robot, pos, vel):
-    """No voxel turns inside out: each voxel's signed area stays at least ``min_area``.
+def keep_orientation(robot, scratch, pos, vel):
+    """No voxel turns inside out: the signed area of each voxel's outline (its corner bodies'
+    lattice points) stays at least ``min_area``.
 
-    Length limits cannot do it (a mirrored voxel has the same side and diagonal lengths).
-    The check is inlined; the rare correction (:func:`restore_area`) is not, which keeps the
-    substep's code small.
+    Rope limits cannot do it (a mirrored voxel has the same distances). The check is inlined;
+    the rare correction (:func:`restore_area`) is not, which keeps the substep's code small.
     """
     corners = robot.corners
-    min_area = robot.min_area
+    offset = robot.corner_offset
+    cos = scratch.cos
+    sin = scratch.sin
     for v in range(robot.n_voxels):
         sw, se, ne, nw = voxel_corners(corners, v)
+        swx, swy = world_point(sw, offset[sw, 0], offset[sw, 1], pos, cos, sin)
+        sex, sey = world_point(se, offset[se, 0], offset[se, 1], pos, cos, sin)
+        nex, ney = world_point(ne, offset[ne, 0], offset[ne, 1], pos, cos, sin)
+        nwx, nwy = world_point(nw, offset[nw, 0], offset[nw, 1], pos, cos, sin)
         # Twice the signed area: the cross product of the diagonals.
-        d1x = pos[ne, 0] - pos[sw, 0]
-        d1y = pos[ne, 1] - pos[sw, 1]
-        d2x = pos[nw, 0] - pos[se, 0]
-        d2y = pos[nw, 1] - pos[se, 1]
-        if 0.5 * (d1x * d2y - d1y * d2x) < min_area:
-            restore_area(sw, se, ne, nw, min_area, robot.inv_mass, pos, vel)
+        d1x = nex - swx
+        d1y = ney - swy
+        d2x = nwx - sex
+        d2y = nwy - sey
+        if 0.5 * (d1x * d2y - d1y * d2x) < robot.min_area:
+            restore_area(sw, se, ne, nw, d1x, d1y, d2x, d2y, robot.min_area, robot.inv_mass,
+                         pos, vel, nex - pos[ne, 0], ney - pos[ne, 1], nwx - pos[nw, 0],
+                         nwy - pos[nw, 1], swx - pos[sw, 0], swy - pos[sw, 1],
+                         sex - pos[se, 0], sey - pos[se, 1])
+
+
+@njit(inline="always")
+def _point_velocity(p, rx, ry, vel):
+    return vel[p, 0] - vel[p, 2] * ry, vel[p, 1] + vel[p, 2] * rx
 
 
 @njit(_nrt=False)
-def restore_area(sw, se, ne, nw, min_area, inv_mass, pos, vel):
-    """Move the corners of a voxel smaller than ``min_area`` along its area's gradient,
-    weighted by inverse mass, to restore ``min_area``, and remove the corners' shrinking
-    rate along it."""
-    d1x = pos[ne, 0] - pos[sw, 0]
-    d1y = pos[ne, 1] - pos[sw, 1]
-    d2x = pos[nw, 0] - pos[se, 0]
-    d2y = pos[nw, 1] - pos[se, 1]
+def restore_area(sw, se, ne, nw, d1x, d1y, d2x, d2y, min_area, inv_mass, pos, vel, r_ne_x,
+                 r_ne_y, r_nw_x, r_nw_y, r_sw_x, r_sw_y, r_se_x, r_se_y):
+    """Move the corner bodies of a voxel smaller than ``min_area`` (diagonals d1 = NE - SW,
+    d2 = NW - SE; r_*: each corner's offset from its body's centre, world frame) along its
+    area's gradient, weighted by inverse mass, to restore ``min_area``, and remove the
+    shrinking rate of its corners (from the bodies' motion and spin) along it. Translations
+    only: moving a body moves its lattice point by as much."""
     area = 0.5 * (d1x * d2y - d1y * d2x)
     # dA/dp for each corner: half the perpendicular of the other diagonal.
     g_sw_x, g_sw_y = -0.5 * d2y, 0.5 * d2x
@@ -441,9 +531,12 @@ def restore_area(sw, se, ne, nw, min_area, inv_mass, pos, vel):
     if norm < 1e-12:
         return
     step = (min_area - area) / norm
-    rate = (g_sw_x * vel[sw, 0] + g_sw_y * vel[sw, 1] + g_ne_x * vel[ne, 0]
-            + g_ne_y * vel[ne, 1] + g_se_x * vel[se, 0] + g_se_y * vel[se, 1]
-            + g_nw_x * vel[nw, 0] + g_nw_y * vel[nw, 1])
+    v_sw_x, v_sw_y = _point_velocity(sw, r_sw_x, r_sw_y, vel)
+    v_se_x, v_se_y = _point_velocity(se, r_se_x, r_se_y, vel)
+    v_ne_x, v_ne_y = _point_velocity(ne, r_ne_x, r_ne_y, vel)
+    v_nw_x, v_nw_y = _point_velocity(nw, r_nw_x, r_nw_y, vel)
+    rate = (g_sw_x * v_sw_x + g_sw_y * v_sw_y + g_ne_x * v_ne_x + g_ne_y * v_ne_y
+            + g_se_x * v_se_x + g_se_y * v_se_y + g_nw_x * v_nw_x + g_nw_y * v_nw_y)
     stop = max(0.0, -rate) / norm
     for p, gx, gy, w in ((sw, g_sw_x, g_sw_y, w_sw), (se, g_se_x, g_se_y, w_se),
                          (ne, g_ne_x, g_ne_y, w_ne), (nw, g_nw_x, g_nw_y, w_nw)):
@@ -455,27 +548,65 @@ def restore_area(sw, se, ne, nw, min_area, inv_mass, pos, vel):
 
 @njit(inline="always")
 def substep(robot, ground, scratch, pos, vel, params):
-    """Advance one robot by one physics substep: springs, gravity and drag; the voxels'
-    length and orientation limits; contact of the outline with the terrain."""
+    """Advance one robot by one physics substep: springs, gravity and drag; the rope limits
+    and each voxel's orientation; contact of the blocks with the terrain. ``scratch.cos`` and
+    ``scratch.sin`` must hold the bodies' rotations (:func:`turn`); every step that turns a
+    body updates them."""
     integrate(robot, scratch, pos, vel, params)
-    keep_orientation(robot, pos, vel)
-    lo_x, hi_x, lo_y = extent(robot.n_points, pos)
+    keep_ropes(robot, scratch, pos, vel)
+    keep_orientation(robot, scratch, pos, vel)
+    lo_x, hi_x, lo_y = tip_extent(robot, pos, scratch.cos, scratch.sin)
     segment = scratch.segment
-    first = segment_near(ground.xs, ground.n, lo_x - params.radius, segment[robot.n_points])
-    segment[robot.n_points] = first
-    ground_contact(robot, ground, scratch, pos, vel, first, hi_x + params.radius, params)
-    side_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params)
+    first = segment_near(ground.xs, ground.n, lo_x, segment[robot.n_tips])
+    segment[robot.n_tips] = first
+    for p in range(robot.n_points):
+        scratch.contact[p] = False
+    tip_contact(robot, ground, scratch, pos, vel, first, hi_x, params)
+    vertex_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params)
+    settle(robot.n_points, scratch.dpos, scratch.dvel, scratch.hits, pos, vel, scratch.cos,
+           scratch.sin)
 
 
 @njit(_nrt=False)
 def advance(robot, ground, scratch, pos, vel, params, substeps):
     """One control step of physics: ``substeps`` substeps under the rest lengths of
-    ``scratch.rest``, then the length limits, so that what is sensed obeys them.
+    ``scratch.rest``, from any state (the bodies' rotations are taken afresh).
 
     Compiled without Numba's reference counting (``_nrt=False``: nothing here allocates), as
     every field read from the per-robot tuples would otherwise cost an atomic increment and
     decrement on each substep.
     """
+    turn(robot.n_points, pos, scratch.cos, scratch.sin)
     for _ in range(substeps):
         substep(robot, ground, scratch, pos, vel, params)
-    enforce_min_lengths(robot.n_springs, robot.ends, robot.min_length, robot.inv_mass, pos, vel)
+
+
+@njit(_nrt=False)
+def corner_state(robot, pos, vel, corner_pos, corner_vel):
+    """The lattice points (the voxels' corners, one per body) and their velocities: what the
+    sensors, the recording and the diagnostics see."""
+    offset = robot.corner_offset
+    for p in range(robot.n_points):
+        c = math.cos(pos[p, 2])
+        s = math.sin(pos[p, 2])
+        rx = c * offset[p, 0] - s * offset[p, 1]
+        ry = s * offset[p, 0] + c * offset[p, 1]
+        corner_pos[p, 0] = pos[p, 0] + rx
+        corner_pos[p, 1] = pos[p, 1] + ry
+        corner_vel[p, 0] = vel[p, 0] - vel[p, 2] * ry
+        corner_vel[p, 1] = vel[p, 1] + vel[p, 2] * rx
+
+
+@njit(_nrt=False)
+def lowest_gap(robot, ground, pos, guess) -> float:
+    """How high [m] the robot's lowest outline vertex is above the ground under it
+    (``guess``: a segment index near the robot)."""
+    gap = math.inf
+    for f in range(robot.n_tips):
+        p = robot.tip_body[f]
+        c = math.cos(pos[p, 2])
+        s = math.sin(pos[p, 2])
+        x = pos[p, 0] + c * robot.tip_offset[f, 0] - s * robot.tip_offset[f, 1]
+        y = pos[p, 1] + s * robot.tip_offset[f, 0] + c * robot.tip_offset[f, 1]
+        gap = min(gap, y - ground_height(ground.xs, ground.ys, ground.n, x, guess))
+    return gap

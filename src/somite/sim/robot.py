@@ -16,22 +16,31 @@ from .config import VOXEL_SIDE
 
 
 class Robot(NamedTuple):
-    """Static arrays of one robot (P points, S springs, V voxels, Q outer sides)."""
+    """Static arrays of one robot (P corner bodies, S springs, Y ropes, V voxels, F outline
+    vertices, Q outline blocks); offsets [m] from a body's centre of mass, in its frame."""
 
     n_points: int
     n_springs: int
+    n_ropes: int
     n_voxels: int
-    n_boundary: int
-    ends: np.ndarray  # (S, 2) int32 point indices
-    owners: np.ndarray  # (S, 2) int32 voxel indices, -1 when one owner
-    strength: np.ndarray  # (S,) stiffness factor: owners of a side (parallel springs add
-    # up), ``diagonal_stiffness`` of a diagonal
-    rest0: np.ndarray  # (S,) [m] rest lengths at zero actuation
-    min_length: np.ndarray  # (S,) [m] hard lower limits
+    n_tips: int
+    n_blocks: int
+    ends: np.ndarray  # (S, 2) int32 body indices
+    anchor: np.ndarray  # (S, 4) anchor offsets on body a, then on body b
+    kind: np.ndarray  # (S,) int32 SPRING_* group, which sets the range of the rest length
+    owner: np.ndarray  # (S,) int32 voxel whose actuation sets the rest length
+    spring_mass: np.ndarray  # (S,) [kg] effective mass: stiffness and damping scale with it
+    rope_ends: np.ndarray  # (Y, 2) int32
+    rope_anchor: np.ndarray  # (Y, 4)
     mass: np.ndarray  # (P,) [kg]
     inv_mass: np.ndarray  # (P,) [1/kg]
+    inv_inertia: np.ndarray  # (P,) [1/(kg m^2)]
+    corner_offset: np.ndarray  # (P, 2) the lattice point each body carries
     corners: np.ndarray  # (V, 4) int32 SW, SE, NE, NW
-    boundary: np.ndarray  # (Q, 2) int32 outer sides, robot on the left of a -> b
+    tip_body: np.ndarray  # (F,) int32
+    tip_offset: np.ndarray  # (F, 2)
+    block_body: np.ndarray  # (Q,) int32
+    block_offset: np.ndarray  # (Q, 2)
     min_area: float  # [m^2] smallest signed area of a voxel
 
 
@@ -49,48 +58,59 @@ class Scratch(NamedTuple):
     """Working arrays of one robot's episode."""
 
     rest: np.ndarray  # (S,) [m] rest lengths under the current actuation
-    factor: np.ndarray  # (V,) rest-length scale of each voxel
-    force: np.ndarray  # (P, 2) [N], zero between substeps
-    dx: np.ndarray  # (S,) spring vectors, relative velocities and forces
+    force: np.ndarray  # (P, 3) [N, N, N m] force and torque on each body, zero between
+    # substeps
+    cos: np.ndarray  # (P,) of each body's angle, for the current substep
+    sin: np.ndarray  # (P,)
+    rax: np.ndarray  # (S,) springs: anchors in the world frame, extensions, relative
+    ray: np.ndarray  # velocities, forces and torques (physics.integrate)
+    rbx: np.ndarray
+    rby: np.ndarray
+    dx: np.ndarray
     dy: np.ndarray
     dvx: np.ndarray
     dvy: np.ndarray
     fx: np.ndarray
     fy: np.ndarray
-    contact: np.ndarray  # (P,) bool: the point touches the ground
-    segment: np.ndarray  # (P + 1,) int64 terrain segment under each point, then the leftmost
+    ta: np.ndarray
+    tb: np.ndarray
+    dpos: np.ndarray  # (P, 3) contact corrections found in a substep, zero between substeps
+    dvel: np.ndarray  # (P, 3)
+    hits: np.ndarray  # (P, 2) contacts found per body, approaching ones; zero between substeps
+    contact: np.ndarray  # (P,) bool: the body touches the ground
+    segment: np.ndarray  # (F + 1,) int64 terrain segment under each outline vertex, then
+    # under the robot's left end
 
 
 @njit
 def robot_view(system, b, params) -> Robot:
     """Robot ``b`` of ``system`` with the limits of ``params``."""
-    n_springs = system.n_springs[b]
-    return robot_in(system, b, params, np.ones(n_springs), np.empty(n_springs),
-                    np.empty(system.n_points[b]))
+    n_points = system.n_points[b]
+    return robot_in(system, b, params, np.empty(n_points), np.empty(n_points))
 
 
 @njit
-def robot_in(system, b, params, strength, min_length, inv_mass) -> Robot:
-    """:func:`robot_view` with its three derived arrays (S,), (S,), (P,) supplied and filled:
-    a GPU thread cannot allocate them."""
+def robot_in(system, b, params, inv_mass, inv_inertia) -> Robot:
+    """:func:`robot_view` with its two derived arrays (P,) supplied and filled: a GPU thread
+    cannot allocate them."""
     n_points = system.n_points[b]
     n_springs = system.n_springs[b]
-    rest0 = system.spring_rest[b, :n_springs]
-    owners = system.spring_owners[b, :n_springs]
-    for s in range(n_springs):
-        if system.spring_diagonal[b, s]:
-            strength[s] = params.diagonal
-            min_length[s] = rest0[s] * params.min_diagonal
-        else:
-            strength[s] = 1.0 if owners[s, 1] < 0 else 2.0
-            min_length[s] = rest0[s] * params.min_side
+    n_ropes = system.n_ropes[b]
+    n_tips = system.n_tips[b]
+    n_blocks = system.n_blocks[b]
     mass = system.mass[b, :n_points]
     for p in range(n_points):
         inv_mass[p] = 1.0 / mass[p]
+        inv_inertia[p] = 1.0 / system.inertia[b, p]
     return Robot(
-        n_points, n_springs, system.n_voxels[b], system.n_boundary[b],
-        system.spring_ends[b, :n_springs], owners, strength, rest0, min_length, mass, inv_mass,
-        system.voxel_corners[b], system.boundary[b],
+        n_points, n_springs, n_ropes, system.n_voxels[b], n_tips, n_blocks,
+        system.spring_ends[b, :n_springs], system.spring_anchor[b, :n_springs],
+        system.spring_kind[b, :n_springs], system.spring_owner[b, :n_springs],
+        system.spring_mass[b, :n_springs], system.rope_ends[b, :n_ropes],
+        system.rope_anchor[b, :n_ropes], mass, inv_mass, inv_inertia,
+        system.corner_offset[b, :n_points], system.voxel_corners[b],
+        system.tip_body[b, :n_tips], system.tip_offset[b, :n_tips],
+        system.block_body[b, :n_blocks], system.block_offset[b, :n_blocks],
         params.min_area * VOXEL_SIDE * VOXEL_SIDE,
     )
 
@@ -106,25 +126,32 @@ def ground_view(system, b) -> Ground:
 def new_scratch(robot) -> Scratch:
     s = robot.n_springs
     return scratch_in(
-        robot, np.empty(s), np.empty(robot.n_voxels), np.empty((robot.n_points, 2)),
+        robot, np.empty(s), np.empty((robot.n_points, 3)),
+        np.empty(robot.n_points), np.empty(robot.n_points), np.empty(s), np.empty(s),
         np.empty(s), np.empty(s), np.empty(s), np.empty(s), np.empty(s), np.empty(s),
-        np.empty(robot.n_points, dtype=np.bool_), np.empty(robot.n_points + 1, dtype=np.int64),
+        np.empty(s), np.empty(s), np.empty(s), np.empty(s), np.empty((robot.n_points, 3)),
+        np.empty((robot.n_points, 3)), np.empty((robot.n_points, 2)),
+        np.empty(robot.n_points, dtype=np.bool_), np.empty(robot.n_tips + 1, dtype=np.int64),
     )
 
 
 @njit
-def scratch_in(robot, rest, factor, force, dx, dy, dvx, dvy, fx, fy, contact,
-               segment) -> Scratch:
+def scratch_in(robot, rest, force, cos, sin, rax, ray, rbx, rby, dx, dy, dvx, dvy, fx, fy, ta,
+               tb, dpos, dvel, hits, contact, segment) -> Scratch:
     """A :class:`Scratch` over supplied arrays (sizes as its fields'), set to the start of an
-    episode: rest lengths at zero actuation, everything else zero."""
+    episode: forces zero, bodies unrotated, no contact. The rest lengths are set by the
+    episode before its first substep."""
     for s in range(robot.n_springs):
-        rest[s] = robot.rest0[s]
-        dx[s] = dy[s] = dvx[s] = dvy[s] = fx[s] = fy[s] = 0.0
-    for v in range(robot.n_voxels):
-        factor[v] = 1.0
+        rest[s] = rax[s] = ray[s] = rbx[s] = rby[s] = dx[s] = dy[s] = 0.0
+        dvx[s] = dvy[s] = fx[s] = fy[s] = ta[s] = tb[s] = 0.0
     for p in range(robot.n_points):
-        force[p, 0] = force[p, 1] = 0.0
+        for j in range(3):
+            force[p, j] = dpos[p, j] = dvel[p, j] = 0.0
+        hits[p, 0] = hits[p, 1] = 0.0
+        cos[p] = 1.0
+        sin[p] = 0.0
         contact[p] = False
-        segment[p] = 0
-    segment[robot.n_points] = 0
-    return Scratch(rest, factor, force, dx, dy, dvx, dvy, fx, fy, contact, segment)
+    for f in range(robot.n_tips + 1):
+        segment[f] = 0
+    return Scratch(rest, force, cos, sin, rax, ray, rbx, rby, dx, dy, dvx, dvy, fx, fy, ta, tb,
+                   dpos, dvel, hits, contact, segment)

@@ -31,21 +31,32 @@ THREADS_PER_BLOCK = 64
 class Work(NamedTuple):
     """Per-robot work arrays of a batch (B robots, padded like the system's arrays)."""
 
-    strength: np.ndarray  # (B, S) from robot_in
-    min_length: np.ndarray  # (B, S)
-    inv_mass: np.ndarray  # (B, P)
+    inv_mass: np.ndarray  # (B, P) from robot_in
+    inv_inertia: np.ndarray  # (B, P)
     rest: np.ndarray  # (B, S) the Scratch fields, in order
-    factor: np.ndarray  # (B, V)
-    force: np.ndarray  # (B, P, 2)
-    dx: np.ndarray  # (B, S)
+    force: np.ndarray  # (B, P, 3)
+    cos: np.ndarray  # (B, P)
+    sin: np.ndarray  # (B, P)
+    rax: np.ndarray  # (B, S) .. tb: twelve of them
+    ray: np.ndarray
+    rbx: np.ndarray
+    rby: np.ndarray
+    dx: np.ndarray
     dy: np.ndarray
     dvx: np.ndarray
     dvy: np.ndarray
     fx: np.ndarray
     fy: np.ndarray
+    ta: np.ndarray
+    tb: np.ndarray
+    dpos: np.ndarray  # (B, P, 3)
+    dvel: np.ndarray  # (B, P, 3)
+    hits: np.ndarray  # (B, P, 2)
     contact: np.ndarray  # (B, P) bool
-    segment: np.ndarray  # (B, P + 1) int64
-    pos: np.ndarray  # (B, P, 2) the state of episode()
+    segment: np.ndarray  # (B, F + 1) int64
+    body_pos: np.ndarray  # (B, P, 3) the state of episode()
+    body_vel: np.ndarray  # (B, P, 3)
+    pos: np.ndarray  # (B, P, 2) the voxel corners
     vel: np.ndarray  # (B, P, 2)
     voxels: np.ndarray  # (B, V, 6)
     touch_hist: np.ndarray  # (B, V, touch window)
@@ -80,6 +91,7 @@ def new_work(system, ctrl, params) -> Work:
     n = system.n_points.shape[0]
     p = system.initial_pos.shape[1]
     s = system.spring_ends.shape[1]
+    f = system.tip_body.shape[1]
     v = system.voxel_corners.shape[1]
     r = system.reading_code.shape[1]
     nodes = max(1, ctrl.node_kind.shape[1])
@@ -88,9 +100,9 @@ def new_work(system, ctrl, params) -> Work:
         return robot_major(None, (n, *tail), dtype)
 
     return Work(
-        new(s), new(s), new(p), new(s), new(v), new(p, 2), new(s), new(s), new(s), new(s),
-        new(s), new(s), new(p, dtype=np.bool_), new(p + 1, dtype=np.int64), new(p, 2),
-        new(p, 2), new(v, 6), new(v, int(params.touch_window)),
+        new(p), new(p), new(s), new(p, 3), new(p), new(p), *(new(s) for _ in range(12)),
+        new(p, 3), new(p, 3), new(p, 2), new(p, dtype=np.bool_), new(f + 1, dtype=np.int64),
+        new(p, 3), new(p, 3), new(p, 2), new(p, 2), new(v, 6), new(v, int(params.touch_window)),
         new(v, int(params.velocity_window), 2), new(r), new(v), new(nodes), new(nodes),
     )
 
@@ -118,16 +130,21 @@ def _run_batch(system, ctrl, params, noise, seeds, n_steps, trace, work, rays):
     n_springs = system.n_springs[b]
     n_voxels = system.n_voxels[b]
     n_nodes = ctrl.n_nodes[b]
-    robot = _robot_in(system, b, params, work.strength[b, :n_springs],
-                      work.min_length[b, :n_springs], work.inv_mass[b, :n_points])
+    robot = _robot_in(system, b, params, work.inv_mass[b, :n_points],
+                      work.inv_inertia[b, :n_points])
     scratch = _scratch_in(
-        robot, work.rest[b, :n_springs], work.factor[b, :n_voxels], work.force[b, :n_points],
-        work.dx[b, :n_springs], work.dy[b, :n_springs], work.dvx[b, :n_springs],
-        work.dvy[b, :n_springs], work.fx[b, :n_springs], work.fy[b, :n_springs],
-        work.contact[b, :n_points], work.segment[b, :n_points + 1],
+        robot, work.rest[b, :n_springs], work.force[b, :n_points], work.cos[b, :n_points],
+        work.sin[b, :n_points], work.rax[b, :n_springs], work.ray[b, :n_springs],
+        work.rbx[b, :n_springs], work.rby[b, :n_springs], work.dx[b, :n_springs],
+        work.dy[b, :n_springs], work.dvx[b, :n_springs], work.dvy[b, :n_springs],
+        work.fx[b, :n_springs], work.fy[b, :n_springs], work.ta[b, :n_springs],
+        work.tb[b, :n_springs], work.dpos[b, :n_points], work.dvel[b, :n_points],
+        work.hits[b, :n_points], work.contact[b, :n_points],
+        work.segment[b, :system.n_tips[b] + 1],
     )
     _episode(b, system, ctrl, params, noise, seeds[b], n_steps, trace, robot,
-             _ground_view(system, b), scratch, work.pos[b, :n_points], work.vel[b, :n_points],
+             _ground_view(system, b), scratch, work.body_pos[b, :n_points],
+             work.body_vel[b, :n_points], work.pos[b, :n_points], work.vel[b, :n_points],
              work.voxels[b, :n_voxels], work.touch_hist[b, :n_voxels],
              work.vel_hist[b, :n_voxels], work.readings[b, :system.n_readings[b]],
              work.actuation[b, :n_voxels], work.h_prev[b, :n_nodes], work.h_next[b, :n_nodes],

@@ -21,7 +21,9 @@ from ..brain.openloop import sine_actuation, table_actuation
 from ..sim.config import CONTROL_HZ
 from ..sim.physics import (
     advance,
+    corner_state,
     ground_height,
+    lowest_gap,
     segment_near,
     set_rest_lengths,
 )
@@ -62,7 +64,7 @@ class Trace(NamedTuple):
     """What an episode leaves behind. ``pos`` .. ``contact`` have 0 rows unless recording."""
 
     com: np.ndarray  # (B, n_steps + 1, 2) centre of mass after each step [m]
-    max_speed: np.ndarray  # (B,) largest corner speed seen [m/s]
+    max_speed: np.ndarray  # (B,) largest speed of a voxel corner seen [m/s]
     min_area: np.ndarray  # (B,) smallest signed voxel area ratio seen (< 0: inverted)
     status: np.ndarray  # (B,) int32 STATUS_*
     non_finite: np.ndarray  # (B,) int32 control steps with a non-finite actuation or state
@@ -126,19 +128,12 @@ def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
 
 
 @njit(_nrt=False)
-def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, segment, params,
-             out):
-    """Update the episode's diagnostics ``out`` (D_*) with control step ``k``; ``segment``
-    (P + 1,) holds a terrain segment near each corner (updated) and near the robot."""
+def _observe(k, robot, ground, n_points, mass, pos, vel, cx, cy, tilt, near, params, out):
+    """Update the episode's diagnostics ``out`` (D_*) with control step ``k``; ``pos``,
+    ``vel``: the bodies' state; ``near``: a terrain segment near the robot."""
     if k <= SETTLE_STEPS:
         return
-    gap = np.inf
-    radius = params.radius
-    for p in range(n_points):
-        # The segment under a corner is where the next search starts: a short walk.
-        i = segment_near(xs, n_terrain, pos[p, 0], segment[p])
-        segment[p] = i
-        gap = min(gap, pos[p, 1] - radius - ground_height(xs, ys, n_terrain, pos[p, 0], i))
+    gap = lowest_gap(robot, ground, pos, near)
     total = vx = vy = 0.0
     for p in range(n_points):
         total += mass[p]
@@ -149,7 +144,8 @@ def _observe(k, n_points, mass, pos, vel, cx, cy, tilt, xs, ys, n_terrain, segme
     if k > params.transient_steps and tilt > 90.0:
         out[D_FLIPPED] += 1.0
     out[D_MAX_GAP] = max(out[D_MAX_GAP], gap)
-    height = cy - ground_height(xs, ys, n_terrain, cx, segment[n_points])
+    height = cy - ground_height(ground.xs, ground.ys, ground.n, cx,
+                                segment_near(ground.xs, ground.n, cx, near))
     out[D_MAX_COM_HEIGHT] = max(out[D_MAX_COM_HEIGHT], height)
     out[D_MAX_COM_SPEED] = max(out[D_MAX_COM_SPEED], speed)
 
@@ -191,18 +187,22 @@ def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
     n_voxels = robot.n_voxels
     n_nodes = ctrl.n_nodes[b]
     episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground_view(system, b),
-            new_scratch(robot), np.empty((n_points, 2)), np.empty((n_points, 2)),
-            np.empty((n_voxels, 6)), np.empty((n_voxels, int(params.touch_window))),
+            new_scratch(robot), np.empty((n_points, 3)), np.empty((n_points, 3)),
+            np.empty((n_points, 2)), np.empty((n_points, 2)), np.empty((n_voxels, 6)),
+            np.empty((n_voxels, int(params.touch_window))),
             np.empty((n_voxels, int(params.velocity_window), 2)),
             np.empty(system.n_readings[b]), np.empty(n_voxels), np.empty(n_nodes),
             np.empty(n_nodes), lidar_rays(params))
 
 
 @njit(inline="always")
-def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground, scratch, pos,
-            vel, voxels, touch_hist, vel_hist, readings, actuation, h_prev, h_next, rays):
+def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground, scratch,
+            body_pos, body_vel, pos, vel, voxels, touch_hist, vel_hist, readings, actuation,
+            h_prev, h_next, rays):
     """:func:`run_robot` over supplied work arrays, which it initialises (a GPU thread cannot
-    allocate): ``pos``, ``vel`` (P, 2), ``voxels`` (V, 6), ``touch_hist`` (V, touch window),
+    allocate): ``body_pos``, ``body_vel`` (P, 3) the corner bodies' state (centre of mass and
+    angle, their rates), ``pos``, ``vel`` (P, 2) the voxel corners that they carry, ``voxels``
+    (V, 6), ``touch_hist`` (V, touch window),
     ``vel_hist`` (V, velocity window, 2), ``readings`` (R,), ``actuation`` (V,), ``h_prev``,
     ``h_next`` (N,), ``rays`` :func:`~somite.sim.sensors.lidar_rays`; ``scratch`` from
     :func:`~somite.sim.robot.scratch_in`."""
@@ -213,9 +213,11 @@ def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground,
     voxel_x = system.voxel_x[b]
     recording = trace.pos.shape[0] > 0
     for p in range(n_points):
-        pos[p, 0] = system.initial_pos[b, p, 0]
-        pos[p, 1] = system.initial_pos[b, p, 1]
-        vel[p, 0] = vel[p, 1] = 0.0
+        body_pos[p, 0] = system.initial_pos[b, p, 0]
+        body_pos[p, 1] = system.initial_pos[b, p, 1]
+        body_pos[p, 2] = 0.0
+        body_vel[p, 0] = body_vel[p, 1] = body_vel[p, 2] = 0.0
+    corner_state(robot, body_pos, body_vel, pos, vel)
     for v in range(n_voxels):
         actuation[v] = 0.0
         for j in range(6):
@@ -231,7 +233,7 @@ def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground,
     substeps = int(params.substeps)
     angle = angle_mode(params)
 
-    cx, cy = _centre_of_mass(n_points, mass, pos)
+    cx, cy = _centre_of_mass(n_points, mass, body_pos)
     trace.com[b, 0, 0] = cx
     trace.com[b, 0, 1] = cy
     if recording:
@@ -247,10 +249,11 @@ def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground,
     diagnostics[D_MAX_GAP] = -np.inf
     non_finite = 0
     for k in range(1, n_steps + 1):
-        set_rest_lengths(n_voxels, robot.n_springs, robot.owners, robot.rest0, actuation,
-                         params.contract, params.expand, scratch.factor, scratch.rest)
-        advance(robot, ground, scratch, pos, vel, params, substeps)
-        cx, cy = _centre_of_mass(n_points, mass, pos)
+        set_rest_lengths(robot.n_springs, robot.kind, robot.owner, actuation, params.contract,
+                         params.expand, scratch.rest)
+        advance(robot, ground, scratch, body_pos, body_vel, params, substeps)
+        corner_state(robot, body_pos, body_vel, pos, vel)
+        cx, cy = _centre_of_mass(n_points, mass, body_pos)
         # The state's check, once per control step: any NaN or inf among the positions
         # reaches the centre of mass, any among the velocities their sum (max() would keep
         # the old value over a NaN).
@@ -268,10 +271,10 @@ def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground,
         voxel_state(n_voxels, robot.corners, pos, vel, angle, voxels)
         for v in range(n_voxels):
             smallest = min(smallest, voxels[v, 4])
-        near = scratch.segment[n_points]
+        near = scratch.segment[robot.n_tips]
         tilt = _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels)
-        _observe(k, n_points, mass, pos, vel, cx, cy, tilt, ground.xs, ground.ys, ground.n,
-                 scratch.segment, params, diagnostics)
+        _observe(k, robot, ground, n_points, mass, body_pos, body_vel, cx, cy, tilt, near,
+                 params, diagnostics)
         update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels, touch_hist,
                          vel_hist, params)
         sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,

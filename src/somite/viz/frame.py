@@ -34,9 +34,6 @@ GRID = (214, 222, 232)
 GROUND = (152, 141, 124)
 GROUND_EDGE = (92, 84, 72)
 OUTLINE = (45, 45, 45)
-SKIN = (110, 110, 110)
-"""The contact skin: the outline the simulator collides with, ``contact_radius`` around the
-corners (the voxels are drawn on top, so only its outer rim shows)."""
 RAY = (220, 30, 30)
 TEXT = (25, 25, 25)
 RED = np.array([214.0, 40.0, 40.0])
@@ -124,7 +121,6 @@ def render_frame(
     _paint_terrain(draw, canvas_view, recording.terrain)
     _paint_grid(draw, canvas_view, labels=True)
     quads = recording.quads(step)
-    _paint_skin(draw, canvas_view, quads, recording.config.contact_radius)
     _paint_voxels(draw, canvas_view, quads, recording.area_ratio(step),
                   recording.config.area_delta)
     _paint_rays(draw, canvas_view, recording, step, quads)
@@ -175,19 +171,6 @@ def _paint_terrain(draw: ImageDraw.ImageDraw, view: View, terrain: Terrain) -> N
     polygon = top + [(top[-1][0], bottom), (top[0][0], bottom)]
     draw.polygon(polygon, fill=GROUND)
     draw.line(top, fill=GROUND_EDGE, width=max(1, int(2 * view.pixel)))
-
-
-def _paint_skin(draw, view: View, quads: np.ndarray, radius: float) -> None:
-    """Discs at the corners and thick sides: the robot as the ground sees it, so that a robot
-    at rest is drawn touching the ground rather than floating ``radius`` above it."""
-    r = radius * view.scale
-    if r < 0.5:
-        return
-    for quad in view.to_pixels(quads).tolist():
-        corners = [tuple(p) for p in quad]
-        draw.line(corners + corners[:1], fill=SKIN, width=int(round(2 * r)))
-        for x, y in corners:
-            draw.ellipse(_box(x, y, r), fill=SKIN)
 
 
 def _paint_voxels(draw, view: View, quads: np.ndarray, ratio: np.ndarray, delta: float) -> None:

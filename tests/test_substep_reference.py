@@ -171,7 +171,10 @@ def worm_on_flat(config, lower):
     return kernel, model, pos
 
 
-def corner_case(velocity, turn=np.radians(10.0), **settings):
+TURN = np.radians(10.0)  # how far corner_case turns the worm [rad]
+
+
+def corner_case(velocity, turn=TURN, **settings):
     """The worm on flat ground, 20 m from the wall, turned rigidly by ``turn`` about the left
     corner of its bottom face, which is 1 cm under the ground; every body moving at
     ``velocity`` (m/s, no spin): the springs at rest, one contact (that corner, its body a

@@ -15,7 +15,6 @@ keep its adjacent blocks from overlapping.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -176,7 +175,6 @@ def geometry(body: Body) -> Geometry:
         for k in range(4):
             key = frozenset((quad[k], quad[(k + 1) % 4]))
             sides[key] = sides.get(key, 0) + 1
-    n = len(ordered)
     com = np.array([np.mean(lattice[c], axis=0) for c in ordered])
     mass = np.array([CORNER_MASS * len(lattice[c]) for c in ordered])
     inertia = np.array([
@@ -217,7 +215,7 @@ def geometry(body: Body) -> Geometry:
             owners.append(v)
             spring_mass.append(CORNER_MASS / 2)
     outline = []
-    for v, (x, y) in enumerate(voxels):
+    for x, y in voxels:
         quad = [(x, y), (x + 1, y), (x + 1, y + 1), (x, y + 1)]
         for k in range(4):
             if sides[frozenset((quad[k], quad[(k + 1) % 4]))] == 1:
@@ -228,8 +226,7 @@ def geometry(body: Body) -> Geometry:
         outer = []
         for bx, by in lattice[c]:
             square = [(bx + sx * half, by + sy * half) for sx, sy in _INTO_VOXEL]
-            touching = [p for p in square if _on_outline(p, outline)]
-            if touching:
+            if any(_on_outline(p, outline) for p in square):
                 block_body.append(i)
                 block_offset.append(offset(i, (bx, by)))
                 outer.extend(square)

@@ -52,7 +52,8 @@ def main() -> dict:
     system = compile_system([body] * 2, [hilly(1.0, 10.0, 0), hilly(1.0, 10.0, 1)])
     ctrl = compile_controllers([random_graph(body, 60, rng) for _ in range(2)], [12, 12])
     params = pack_params(config)
-    dims = {"force": 3, "pos": 3, "vel": 3, "voxels": 3, "touch_hist": 3, "vel_hist": 4}
+    dims = {"force": 3, "dpos": 3, "dvel": 3, "hits": 3, "body_pos": 3, "body_vel": 3,
+            "pos": 3, "vel": 3, "voxels": 3, "touch_hist": 3, "vel_hist": 4}
     kinds = {"contact": types.boolean, "segment": types.int64}
     work = types.NamedTuple([types.Array(kinds.get(f, types.float64), dims.get(f, 2),
                                          "A" if f in dims else "F")

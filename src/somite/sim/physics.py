@@ -582,15 +582,14 @@ def advance(robot, ground, scratch, pos, vel, params, substeps):
 
 
 @njit(_nrt=False)
-def corner_state(robot, pos, vel, corner_pos, corner_vel):
+def corner_state(robot, pos, vel, cos, sin, corner_pos, corner_vel):
     """The lattice points (the voxels' corners, one per body) and their velocities: what the
-    sensors, the recording and the diagnostics see."""
+    sensors, the recording and the diagnostics see. ``cos``, ``sin``: the bodies' rotations,
+    as the substeps leave them in :class:`Scratch` (every step that turns a body updates
+    them)."""
     offset = robot.corner_offset
     for p in range(robot.n_points):
-        c = math.cos(pos[p, 2])
-        s = math.sin(pos[p, 2])
-        rx = c * offset[p, 0] - s * offset[p, 1]
-        ry = s * offset[p, 0] + c * offset[p, 1]
+        rx, ry = turned(p, offset[p, 0], offset[p, 1], cos, sin)
         corner_pos[p, 0] = pos[p, 0] + rx
         corner_pos[p, 1] = pos[p, 1] + ry
         corner_vel[p, 0] = vel[p, 0] - vel[p, 2] * ry
@@ -598,15 +597,13 @@ def corner_state(robot, pos, vel, corner_pos, corner_vel):
 
 
 @njit(_nrt=False)
-def lowest_gap(robot, ground, pos, guess) -> float:
+def lowest_gap(robot, ground, pos, cos, sin, guess) -> float:
     """How high [m] the robot's lowest outline vertex is above the ground under it
-    (``guess``: a segment index near the robot)."""
+    (``cos``, ``sin`` as for :func:`corner_state`; ``guess``: a segment index near the
+    robot)."""
     gap = math.inf
     for f in range(robot.n_tips):
-        p = robot.tip_body[f]
-        c = math.cos(pos[p, 2])
-        s = math.sin(pos[p, 2])
-        x = pos[p, 0] + c * robot.tip_offset[f, 0] - s * robot.tip_offset[f, 1]
-        y = pos[p, 1] + s * robot.tip_offset[f, 0] + c * robot.tip_offset[f, 1]
+        x, y = world_point(robot.tip_body[f], robot.tip_offset[f, 0], robot.tip_offset[f, 1],
+                           pos, cos, sin)
         gap = min(gap, y - ground_height(ground.xs, ground.ys, ground.n, x, guess))
     return gap

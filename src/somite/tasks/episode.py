@@ -128,12 +128,14 @@ def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
 
 
 @njit(_nrt=False)
-def _observe(k, robot, ground, n_points, mass, pos, vel, cx, cy, tilt, near, params, out):
+def _observe(k, robot, ground, n_points, mass, pos, vel, cos, sin, cx, cy, tilt, near, params,
+             out):
     """Update the episode's diagnostics ``out`` (D_*) with control step ``k``; ``pos``,
-    ``vel``: the bodies' state; ``near``: a terrain segment near the robot."""
+    ``vel``: the bodies' state, ``cos``, ``sin`` their rotations; ``near``: a terrain segment
+    near the robot."""
     if k <= SETTLE_STEPS:
         return
-    gap = lowest_gap(robot, ground, pos, near)
+    gap = lowest_gap(robot, ground, pos, cos, sin, near)
     total = vx = vy = 0.0
     for p in range(n_points):
         total += mass[p]
@@ -217,7 +219,7 @@ def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground,
         body_pos[p, 1] = system.initial_pos[b, p, 1]
         body_pos[p, 2] = 0.0
         body_vel[p, 0] = body_vel[p, 1] = body_vel[p, 2] = 0.0
-    corner_state(robot, body_pos, body_vel, pos, vel)
+    corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, pos, vel)
     for v in range(n_voxels):
         actuation[v] = 0.0
         for j in range(6):
@@ -252,7 +254,7 @@ def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground,
         set_rest_lengths(robot.n_springs, robot.kind, robot.owner, actuation, params.contract,
                          params.expand, scratch.rest)
         advance(robot, ground, scratch, body_pos, body_vel, params, substeps)
-        corner_state(robot, body_pos, body_vel, pos, vel)
+        corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, pos, vel)
         cx, cy = _centre_of_mass(n_points, mass, body_pos)
         # The state's check, once per control step: any NaN or inf among the positions
         # reaches the centre of mass, any among the velocities their sum (max() would keep
@@ -273,8 +275,8 @@ def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground,
             smallest = min(smallest, voxels[v, 4])
         near = scratch.segment[robot.n_tips]
         tilt = _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels)
-        _observe(k, robot, ground, n_points, mass, body_pos, body_vel, cx, cy, tilt, near,
-                 params, diagnostics)
+        _observe(k, robot, ground, n_points, mass, body_pos, body_vel, scratch.cos, scratch.sin,
+                 cx, cy, tilt, near, params, diagnostics)
         update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels, touch_hist,
                          vel_hist, params)
         sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,

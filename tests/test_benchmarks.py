@@ -133,6 +133,25 @@ def test_variant_cells_are_those_of_their_grid(grid, cells, variant):
                                                                for line in ref[1:]]
 
 
+
+@pytest.mark.parametrize("grid, cells, steps", [
+    ("vsr-sine-sweep", 200, (120, 240, 480)), ("heldout-1", 152, (120,)),
+    ("heldout-2", 80, (120,)), ("heldout-3", 240, (120,))])
+def test_time_step_variants_hold_their_grid_cells(grid, cells, steps):
+    speeds = []
+    for n in steps:
+        lines = (VARIANTS / f"{grid}-timestep-{n}.csv").read_text().splitlines()
+        assert lines[0] == COLUMNS
+        assert len(lines) - 1 == cells
+        if grid != "vsr-sine-sweep":
+            ref = (HELD_OUT / f"{grid}.csv").read_text().splitlines()
+            assert [line.split(",")[:5] for line in lines] == [line.split(",")[:5]
+                                                               for line in ref]
+            speeds.append([line.split(",")[5] for line in ref[1:]])
+        speeds.append([line.split(",")[5] for line in lines[1:]])
+    # Each time step gives its own speeds: no file is a copy of another.
+    assert len({tuple(s) for s in speeds}) == len(speeds)
+
 def test_fidelity_against_a_variant_of_the_reference():
     cells = HELD_OUT / "heldout-1.csv"
     variant = VARIANTS / "heldout-1-restitution-0.csv"

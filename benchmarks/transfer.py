@@ -1,0 +1,413 @@
+"""How fast somite's evolved robots are in the paper's simulator (2D-VSR-Sim 1.9.2 on dyn4j 3.3.0).
+
+The transfer check: for each run directory (``somite evolve ... --out DIR``) it takes the best
+genome of generations 0, G, 2G, ... (``--every G``) and of the last generation from the run's
+``bests.jsonl``, re-runs each on a fixed set of terrains (``--terrains``) in somite, with the
+run's own preset, and in 2D-VSR-Sim through the Java driver of
+``shared/tools/closed-loop-2dvsrsim/`` (``CL genomes``: the authors' graph controller with the
+authors' code's sensors, 30 s episodes, v_x over [5 s, 30 s]; genomes converted by its
+``export_genomes.py``), with the run's sensor noise sigma (0.01 in both presets). Both sides use
+the driver's episode: 30 s, v_x from 5 s on, whatever the run's own ``duration``. It prints, as
+JSON:
+
+- per run and sampled generation: ``somite_vx`` and ``vsr_vx``, each the mean v_x [m/s] over the
+  terrains (NaN, ``null``, when any terrain is), ``ratio`` = ``vsr_vx / somite_vx``, the logged
+  ``training_velocity`` and the per-terrain cells;
+- per run: ``median_ratio``, the median of the ratios of the sampled generations from ``--from``
+  on (ratios that are not finite left out and counted);
+- ``shapes``: per shape, the median of the runs' median ratios.
+
+2D-VSR-Sim runs what somite's ``original-code`` preset models (the code's sensors, windows,
+frames and sigmoid hidden nodes). A run of another preset is compared all the same, but says so:
+``preset_mismatch: true``, and the shape's median leaves it out (it gets its own). Likewise
+``episode_mismatch`` flags a run evolved on episodes other than 30 s from 5 s. Bodies other than
+the worm and the biped with the paper's sensors are refused: the driver cannot build them.
+
+    python benchmarks/transfer.py RUN [RUN ...] [--every 50] [--from 50]
+                                  [--terrains flat,hilly-1-10-10000,...|validation]
+                                  [--vsr PATH] [--export PATH] [--threads 2] [--seed 0]
+
+``--vsr`` (default: env ``VSR``) is a build of the driver (``build.sh``: classes-main/CL.class
+beside classes-hmsr/, classes-dyn4j/ and lib/); ``--export`` the export script (default
+``../shared/tools/closed-loop-2dvsrsim/export_genomes.py`` from the repository root). A ratio
+of speeds near zero is noise: look at the medians, and at ``somite_vx`` beside it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from somite._io import parse_json, read_text
+from somite.brain.genome import Genome
+from somite.errors import SomiteError, bad
+from somite.experiments.config import RunConfig, resolve
+from somite.sim.body import Body
+from somite.sim.config import SimConfig, preset
+from somite.sim.terrain import Terrain, parse_terrain
+from somite.tasks.validation import evaluate, validation_terrains
+from somite.tasks.velocity import mean_velocity
+
+ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_EXPORT = ROOT.parent / "shared/tools/closed-loop-2dvsrsim/export_genomes.py"
+DEFAULT_TERRAINS = ("flat", *(f"hilly-1-10-{10000 + i}" for i in range(5)))
+DRIVER_PRESET = "original-code"
+"""What 2D-VSR-Sim's driver runs: somite's name for the authors' code's sensors and controller."""
+DRIVER_DURATION, DRIVER_TRANSIENT = 30.0, 5.0
+"""CL.java's episode: ``new Locomotion(30, ...)``, v_x of ``subOutcome(5, 30)``."""
+DRIVER_SHAPES = {"worm": "worm-6x2", "biped": "biped-4x3"}
+"""The bodies the driver builds (export_genomes.py's names), with the paper's sensors."""
+DRIVER_COLUMNS = ("sim", "name", "shape", "terrain", "sigma", "hidden", "vx", "x_first", "x_last",
+                  "x_end", "y_end", "seconds")
+"""The header CL.java writes in ``genomes`` mode."""
+CLASSPATH = ("classes-main", "classes-hmsr", "classes-dyn4j", "lib/*")
+
+
+@dataclass
+class Run:
+    """A run directory: its configuration and the sampled generations' best genomes."""
+
+    path: str
+    config: RunConfig
+    shape: str
+    entries: list[dict]
+    """``bests.jsonl`` lines of the sampled generations: generation, velocity, genome."""
+    last: int
+
+
+def _generation(entry, path: Path, i: int) -> int:
+    g = entry.get("generation") if isinstance(entry, dict) else None
+    if isinstance(g, bool) or not isinstance(g, int) or g < 0 or "genome" not in entry:
+        raise bad("run", str(path.parent), f"bests.jsonl line {i + 1} has no generation and "
+                  "genome")
+    return g
+
+
+def read_bests(path: Path) -> list[dict]:
+    """The lines of a run's ``bests.jsonl``, in generation order (one per generation)."""
+    entries, seen = [], set()
+    for i, line in enumerate(read_text(path, "run").splitlines()):
+        if not line.strip():
+            continue
+        entry = parse_json(line, "run", f"{path} line {i + 1}")
+        g = _generation(entry, path, i)
+        if g in seen:
+            raise bad("run", str(path.parent), f"bests.jsonl has generation {g} twice")
+        seen.add(g)
+        entries.append(entry)
+    if not entries:
+        raise bad("run", str(path.parent), "bests.jsonl is empty (no generation finished)")
+    return sorted(entries, key=lambda e: e["generation"])
+
+
+def select_generations(generations, every: int) -> list[int]:
+    """Generations 0, ``every``, 2 ``every``, ... among ``generations``, and the last one."""
+    if isinstance(every, bool) or not isinstance(every, int) or every < 1:
+        raise bad("every", every, "must be a whole number at least 1")
+    present = sorted(set(generations))
+    if not present:
+        return []
+    return sorted({g for g in present if g % every == 0} | {present[-1]})
+
+
+def driver_shape(genome: Genome, run: str) -> str:
+    """``worm`` or ``biped``: the bodies, with the paper's sensors, that CL.java can build."""
+    for name in DRIVER_SHAPES:
+        if genome.body == Body.build(name):
+            return name
+    raise bad("run", run, f"body {genome.body.to_dict()['shape']!r} with these sensors: the "
+              "2D-VSR-Sim driver builds only the worm and the biped with the paper's sensors")
+
+
+def load_run(path: str, every: int) -> Run:
+    """A run directory, its configuration, and the best genomes of the generations to sample."""
+    folder = Path(path)
+    if not folder.is_dir():
+        raise bad("run", path, "no such run directory" if not folder.exists()
+                  else "not a run directory (a file)")
+    for name in ("config.json", "bests.jsonl"):
+        if not (folder / name).is_file():
+            raise bad("run", path, f"not a run directory (no {name}; made by somite evolve --out)")
+    saved = parse_json(read_text(folder / "config.json", "run"), "run", str(folder / "config.json"))
+    if not isinstance(saved, dict):
+        raise bad("run", path, "config.json is not a JSON object")
+    try:
+        config = resolve(saved)
+    except SomiteError as error:
+        raise bad("run", path, f"config.json: {error}") from None
+    entries = read_bests(folder / "bests.jsonl")
+    by_generation = {e["generation"]: e for e in entries}
+    chosen = select_generations(list(by_generation), every)
+    picked = []
+    for g in chosen:
+        entry = by_generation[g]
+        try:
+            genome = Genome.from_dict(entry["genome"])
+        except (SomiteError, TypeError, KeyError, AttributeError) as error:
+            raise bad("run", path, f"bests.jsonl generation {g}: not a genome ({error})") from None
+        picked.append({"generation": g, "velocity": entry.get("velocity"), "genome": genome,
+                       "data": entry["genome"]})
+    shapes = {driver_shape(e["genome"], path) for e in picked}
+    if len(shapes) != 1:
+        raise bad("run", path, f"bests.jsonl mixes bodies {sorted(shapes)}")
+    return Run(path, config, shapes.pop(), picked, chosen[-1])
+
+
+def parse_terrains(text: str) -> list[Terrain]:
+    """``--terrains``: comma-separated names, or ``validation`` (the 10 validation terrains)."""
+    if text.strip() == "validation":
+        return validation_terrains(10)
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names:
+        raise bad("terrains", text, "give at least one terrain name")
+    terrains = [parse_terrain(name) for name in names]
+    canonical = [t.name for t in terrains]
+    if len(set(canonical)) != len(canonical):
+        raise bad("terrains", text, "names a terrain twice")
+    return terrains
+
+
+def sim_config(config: RunConfig) -> SimConfig:
+    """The run's simulator settings (its preset) on the driver's episode."""
+    return preset(config.preset, duration=DRIVER_DURATION, transient=DRIVER_TRANSIENT)
+
+
+def sigma_text(sigma: float) -> str:
+    """A noise sigma as the driver's argument (it builds ``spinedTouchSighted-f-f-SIGMA``)."""
+    return "0" if sigma == 0 else repr(float(sigma))
+
+
+def parse_driver_csv(text: str) -> dict[tuple[str, str, float], float]:
+    """CL.java's ``genomes`` CSV -> v_x by (name, terrain, sigma)."""
+    reader = csv.DictReader(io.StringIO(text))
+    missing = [c for c in ("name", "terrain", "sigma", "vx") if c not in (reader.fieldnames or [])]
+    if missing:
+        raise bad("driver_csv", reader.fieldnames, f"lacks the columns {missing}")
+    cells = {}
+    for i, row in enumerate(reader):
+        try:
+            key = (row["name"], row["terrain"], float(row["sigma"]))
+            cells[key] = float(row["vx"])
+        except (TypeError, ValueError):
+            raise bad("driver_csv", f"row {i + 2}",
+                      "has a sigma or vx that is not a number") from None
+    return cells
+
+
+def ratio(vsr: float, somite: float) -> float:
+    """2D-VSR-Sim's v_x over somite's: NaN when either is NaN or somite's is 0."""
+    if not (math.isfinite(vsr) and math.isfinite(somite)) or somite == 0:
+        return math.nan
+    return vsr / somite
+
+
+def median(values) -> float:
+    """The median of the finite ``values`` (NaN when there are none)."""
+    finite = [v for v in values if v is not None and math.isfinite(v)]
+    return float(np.median(finite)) if finite else math.nan
+
+
+def find_java(vsr: str | None) -> tuple[str, str]:
+    """(java executable, class path) of a driver build, or a one-line error."""
+    if not vsr:
+        raise bad("vsr", vsr, "give --vsr PATH or set VSR to a build of the 2D-VSR-Sim driver")
+    folder = Path(vsr)
+    if not folder.is_dir():
+        raise bad("vsr", vsr, "no such folder (a build of the 2D-VSR-Sim driver: build.sh)")
+    for part in ("classes-main/CL.class", "classes-hmsr/it", "classes-dyn4j/org", "lib"):
+        if not (folder / part).exists():
+            raise bad("vsr", vsr, f"not a build of the 2D-VSR-Sim driver (no {part}; run "
+                      "shared/tools/closed-loop-2dvsrsim/build.sh)")
+    java = shutil.which("java")
+    if java is None:
+        raise bad("java", "java", "not found on PATH (a Java 11+ runtime runs the driver)")
+    return java, os.pathsep.join(str(folder.resolve() / p) for p in CLASSPATH)
+
+
+def check_export(path: str) -> Path:
+    script = Path(path)
+    if not script.is_file():
+        raise bad("export", path, "no such file (export_genomes.py of the 2D-VSR-Sim driver)")
+    return script
+
+
+def _last_line(text: str) -> str:
+    lines = [line for line in text.strip().splitlines() if line.strip()]
+    return lines[-1].strip()[:300] if lines else "no output"
+
+
+def run_driver(genomes: dict[str, dict], terrains: list[str], sigmas: list[float], vsr: str,
+               export: Path, threads: int, java: tuple[str, str]) -> dict:
+    """Every genome (name -> genome JSON) x terrain x sigma in 2D-VSR-Sim: v_x by (name,
+    terrain, sigma). Exports the genomes, runs ``CL genomes`` in a temporary folder."""
+    executable, classpath = java
+    with tempfile.TemporaryDirectory(prefix="somite-transfer-") as tmp:
+        source = Path(tmp) / "genomes.jsonl"
+        source.write_text("".join(json.dumps({"name": name, "genome": genome}) + "\n"
+                                  for name, genome in genomes.items()))
+        done = subprocess.run([sys.executable, str(export), str(source)], capture_output=True,
+                              text=True, cwd=tmp)
+        if done.returncode != 0:
+            raise bad("export", str(export), f"failed: {_last_line(done.stderr)}")
+        (Path(tmp) / "genomes.txt").write_text(done.stdout)
+        env = {**os.environ, "THREADS": str(threads), "HIDDEN": "sigmoid"}
+        command = [executable, "-cp", classpath, "CL", "genomes", "genomes.txt", ",".join(terrains),
+                   ",".join(sigma_text(s) for s in sigmas), "out.csv"]
+        sys.stderr.write(f"transfer: 2D-VSR-Sim: {len(genomes) * len(terrains) * len(sigmas)} "
+                         f"episodes of 30 s on {threads} threads\n")
+        done = subprocess.run(command, capture_output=True, text=True, cwd=tmp, env=env)
+        out = Path(tmp) / "out.csv"
+        if done.returncode != 0 or not out.is_file():
+            raise bad("vsr", vsr, f"the driver failed (exit {done.returncode}): "
+                      f"{_last_line(done.stderr)}")
+        return parse_driver_csv(out.read_text())
+
+
+def _number(value: float) -> float | None:
+    return float(value) if value is not None and math.isfinite(value) else None
+
+
+def compare(runs: list[Run], terrains: list[Terrain], vsr_cells: dict, seed: int,
+            start: int, names: dict[str, str]) -> dict:
+    """The JSON report: somite and 2D-VSR-Sim v_x of every run's sampled generations."""
+    report_runs = []
+    for run in runs:
+        config = sim_config(run.config)
+        sigma = float(config.noise_sigma)
+        somite_vx = evaluate([e["genome"] for e in run.entries], terrains, config, seed=seed)
+        generations = []
+        for entry, row in zip(run.entries, somite_vx):
+            name = names[_key(entry["data"])]
+            vsr_row = np.array([vsr_cells.get((name, t.name, sigma), math.nan) for t in terrains])
+            s, v = float(mean_velocity(row)), float(mean_velocity(vsr_row))
+            generations.append({
+                "generation": entry["generation"],
+                "training_velocity": entry["velocity"],
+                "somite_vx": _number(s),
+                "vsr_vx": _number(v),
+                "ratio": _number(ratio(v, s)),
+                "terrains": {t.name: {"somite": _number(a), "vsr": _number(b)}
+                             for t, a, b in zip(terrains, row, vsr_row)},
+            })
+        counted = [g for g in generations if g["generation"] >= start]
+        ratios = [g["ratio"] for g in counted if g["ratio"] is not None]
+        episode = {"duration": run.config.duration, "transient": run.config.transient}
+        report_runs.append({
+            "run": run.path,
+            "shape": run.shape,
+            "preset": run.config.preset,
+            "preset_mismatch": run.config.preset != DRIVER_PRESET,
+            "episode": episode,
+            "episode_mismatch": episode != {"duration": DRIVER_DURATION,
+                                            "transient": DRIVER_TRANSIENT},
+            "noise_sigma": sigma,
+            "last_generation": run.last,
+            "generations": generations,
+            "median_ratio": _number(median(ratios)),
+            "ratios_counted": len(ratios),
+            "ratios_left_out": len(counted) - len(ratios),
+        })
+    shapes = {}
+    for shape in sorted({r["shape"] for r in report_runs}):
+        mine = [r for r in report_runs if r["shape"] == shape]
+        matched = [r["median_ratio"] for r in mine if not r["preset_mismatch"]]
+        other = [r["median_ratio"] for r in mine if r["preset_mismatch"]]
+        shapes[shape] = {"runs": len(matched), "median_ratio": _number(median(matched))}
+        if other:
+            shapes[shape].update(runs_preset_mismatch=len(other),
+                                 median_ratio_preset_mismatch=_number(median(other)))
+    return {"runs": report_runs, "shapes": shapes}
+
+
+def _key(genome_data: dict) -> str:
+    return json.dumps(genome_data, sort_keys=True)
+
+
+def transfer(paths: list[str], every: int = 50, start: int = 50,
+             terrains: list[Terrain] | None = None, vsr: str | None = None,
+             export: str | Path = DEFAULT_EXPORT, threads: int = 2, seed: int = 0) -> dict:
+    """The whole check (see the module docstring); every bad input is a one-line error."""
+    if isinstance(start, bool) or not isinstance(start, int) or start < 0:
+        raise bad("from", start, "must be a whole number, 0 or more")
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+        raise bad("threads", threads, "must be a whole number at least 1")
+    terrains = terrains if terrains is not None else [parse_terrain(n) for n in DEFAULT_TERRAINS]
+    if not paths:
+        raise bad("run", paths, "give at least one run directory")
+    runs = [load_run(path, every) for path in paths]
+    java = find_java(vsr)
+    script = check_export(str(export))
+    names: dict[str, str] = {}  # genome JSON -> driver name; a genome kept for many generations
+    by_name: dict[str, dict] = {}  # runs once
+    for run in runs:
+        for entry in run.entries:
+            key = _key(entry["data"])
+            if key not in names:
+                names[key] = f"genome-{len(names):05d}"
+                by_name[names[key]] = entry["data"]
+    sigmas = sorted({float(sim_config(run.config).noise_sigma) for run in runs})
+    cells = run_driver(by_name, [t.name for t in terrains], sigmas, str(vsr), script, threads,
+                       java)
+    report = compare(runs, terrains, cells, seed, start, names)
+    return {
+        "terrains": [t.name for t in terrains],
+        "every": every,
+        "from": start,
+        "seed": seed,
+        "episode": {"duration": DRIVER_DURATION, "transient": DRIVER_TRANSIENT},
+        "driver": {"vsr": str(vsr), "preset": DRIVER_PRESET, "hidden": "sigmoid",
+                   "threads": threads, "episodes": len(cells), "genomes": len(by_name)},
+        **report,
+    }
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line, as somite's commands
+        sys.stderr.write(f"{self.prog}: error: {message}\n")
+        sys.exit(2)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = _Parser(prog="transfer.py", description=__doc__.splitlines()[0])
+    parser.add_argument("runs", nargs="+", metavar="RUN", help="run directories")
+    parser.add_argument("--every", type=int, default=50, metavar="G",
+                        help="sample the best of every G-th generation, and the last (default 50)")
+    parser.add_argument("--from", dest="start", type=int, default=50, metavar="G",
+                        help="the per-run median counts generations from G on (default 50)")
+    parser.add_argument("--terrains", default=",".join(DEFAULT_TERRAINS),
+                        help="comma-separated terrain names, or 'validation' (the 10 validation "
+                        "terrains); default: flat and hilly-1-10-10000 ... 10004")
+    parser.add_argument("--vsr", default=os.environ.get("VSR"),
+                        help="the 2D-VSR-Sim driver's build (default: env VSR)")
+    parser.add_argument("--export", default=str(DEFAULT_EXPORT),
+                        help="export_genomes.py (default: ../shared/tools/closed-loop-2dvsrsim/ "
+                        "beside the repository)")
+    parser.add_argument("--threads", type=int, default=2, help="the driver's THREADS (default 2)")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="somite's noise seed (paper preset; original-code ignores it)")
+    args = parser.parse_args(argv)
+    try:
+        out = transfer(args.runs, args.every, args.start, parse_terrains(args.terrains),
+                       args.vsr, args.export, args.threads, args.seed)
+    except SomiteError as error:
+        sys.stderr.write(f"{parser.prog}: error: {error}\n")
+        return 2
+    json.dump(out, sys.stdout, indent=2)
+    sys.stdout.write("\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

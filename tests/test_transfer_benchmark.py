@@ -1,0 +1,208 @@
+"""``benchmarks/transfer.py``, the transfer check: the parts that need no Java on tiny runs made
+here (which generations it samples, the driver's CSV, ratios and medians, the error lines), and
+one end-to-end run that needs a build of the 2D-VSR-Sim driver (env ``VSR``). No timing."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from somite import evolve, resolve
+from somite.errors import SomiteError
+from somite.sim.terrain import parse_terrain
+from somite.tasks.validation import evaluate
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import transfer  # noqa: E402
+
+TINY = {"shape": "worm", "preset": "original-code", "population": 4, "generations": 4,
+        "duration": 2.0, "validate_every": 0}
+DRIVER_CSV = """\
+sim,name,shape,terrain,sigma,hidden,vx,x_first,x_last,x_end,y_end,seconds
+java,genome-00000,worm-6x2,flat,0.01,sigmoid,0.006114155,20.336530,20.489282,20.486839,8.08,3.885
+java,genome-00000,worm-6x2,flat,0,sigmoid,0.023307202,20.416269,20.998560,21.000276,8.074112,3.479
+java,genome-00001,worm-6x2,hilly-1-10-10000,0.01,sigmoid,NaN,20.1,20.2,20.2,8.0,1.5
+"""
+"""Shaped as CL.java writes it in ``genomes`` mode (as ``java-init-worm.csv``)."""
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """A worm run of the driver's preset and a biped run of the paper preset."""
+    root = tmp_path_factory.mktemp("transfer")
+    evolve(resolve(TINY), root / "worm")
+    evolve(resolve({**TINY, "shape": "biped", "preset": "paper", "seed": 1}), root / "biped")
+    return root
+
+
+def test_select_generations():
+    assert transfer.select_generations(range(8), 3) == [0, 3, 6, 7]
+    assert transfer.select_generations(range(7), 3) == [0, 3, 6]
+    assert transfer.select_generations([0, 1, 2], 50) == [0, 2]
+    assert transfer.select_generations([0], 50) == [0]
+    assert transfer.select_generations([], 5) == []
+    for every in (0, -1, 1.5, True):
+        with pytest.raises(SomiteError, match=r"^every="):
+            transfer.select_generations(range(3), every)
+
+
+def test_load_run_picks_the_generations_best(runs):
+    run = transfer.load_run(str(runs / "worm"), 3)
+    assert [e["generation"] for e in run.entries] == [0, 3, 4]
+    assert run.last == 4 and run.shape == "worm" and run.config.preset == "original-code"
+    lines = [json.loads(line) for line in (runs / "worm/bests.jsonl").read_text().splitlines()]
+    for entry in run.entries:
+        assert entry["data"] == lines[entry["generation"]]["genome"]
+        assert entry["velocity"] == lines[entry["generation"]]["velocity"]
+    assert transfer.load_run(str(runs / "biped"), 50).shape == "biped"
+
+
+def test_parse_driver_csv():
+    cells = transfer.parse_driver_csv(DRIVER_CSV)
+    assert cells[("genome-00000", "flat", 0.01)] == 0.006114155
+    assert cells[("genome-00000", "flat", 0.0)] == 0.023307202
+    assert math.isnan(cells[("genome-00001", "hilly-1-10-10000", 0.01)])
+    assert len(cells) == 3
+    with pytest.raises(SomiteError, match=r"^driver_csv=.*'vx'"):
+        transfer.parse_driver_csv("sim,name,terrain,sigma\njava,a,flat,0.01\n")
+    with pytest.raises(SomiteError, match=r"^driver_csv='row 2'"):
+        transfer.parse_driver_csv(DRIVER_CSV.splitlines()[0] + "\njava,a,worm-6x2,flat,0.01,"
+                                  "sigmoid,fast,0,0,0,0,0\n")
+
+
+def test_sigma_as_the_driver_takes_it():
+    assert transfer.sigma_text(0.01) == "0.01" and transfer.sigma_text(0.0) == "0"
+
+
+def test_ratio_and_median():
+    assert transfer.ratio(0.5, 2.0) == 0.25
+    assert transfer.ratio(-0.1, 0.2) == pytest.approx(-0.5)
+    for vsr, somite in ((1.0, 0.0), (math.nan, 1.0), (1.0, math.nan), (math.inf, 1.0)):
+        assert math.isnan(transfer.ratio(vsr, somite))
+    assert transfer.median([3.0, None, 1.0, math.nan, 2.0]) == 2.0
+    assert transfer.median([1.0, 2.0]) == 1.5
+    assert math.isnan(transfer.median([None, math.nan]))
+
+
+def test_compare_ratios_medians_and_the_preset_mismatch(runs):
+    terrains = [parse_terrain("flat"), parse_terrain("hilly-1-10-10000")]
+    loaded = [transfer.load_run(str(runs / name), 2) for name in ("worm", "biped")]
+    names, cells = {}, {}
+    for run in loaded:  # a fake 2D-VSR-Sim: half of somite's speed, on every terrain
+        velocities = evaluate([e["genome"] for e in run.entries], terrains,
+                              transfer.sim_config(run.config))
+        for entry, row in zip(run.entries, velocities):
+            name = names.setdefault(transfer._key(entry["data"]), f"genome-{len(names):05d}")
+            for t, v in zip(terrains, row):
+                cells[(name, t.name, 0.01)] = v / 2
+    out = transfer.compare(loaded, terrains, cells, seed=0, start=2, names=names)
+    worm, biped = out["runs"]
+    assert [g["generation"] for g in worm["generations"]] == [0, 2, 4]
+    assert not worm["preset_mismatch"] and biped["preset_mismatch"]
+    assert worm["episode_mismatch"] and worm["episode"] == {"duration": 2.0, "transient": 5.0}
+    assert worm["noise_sigma"] == 0.01
+    for run in out["runs"]:
+        for g in run["generations"]:
+            assert g["vsr_vx"] == pytest.approx(g["somite_vx"] / 2)
+            assert g["ratio"] == pytest.approx(0.5)
+            assert set(g["terrains"]) == {"flat", "hilly-1-10-10000"}
+        assert run["median_ratio"] == pytest.approx(0.5)
+        assert run["ratios_counted"] == 2 and run["ratios_left_out"] == 0  # generations 2, 4
+    assert out["shapes"]["worm"] == {"runs": 1, "median_ratio": pytest.approx(0.5)}
+    assert out["shapes"]["biped"]["runs"] == 0 and out["shapes"]["biped"]["median_ratio"] is None
+    assert out["shapes"]["biped"]["median_ratio_preset_mismatch"] == pytest.approx(0.5)
+    # A genome the driver has no cell for is NaN there, and left out of the median.
+    last = names[transfer._key(loaded[0].entries[-1]["data"])]
+    lost = [g for g, e in zip(worm["generations"], loaded[0].entries)
+            if names[transfer._key(e["data"])] == last and g["generation"] >= 2]
+    kept = {k: v for k, v in cells.items() if k[0] != last}
+    worm = transfer.compare(loaded[:1], terrains, kept, 0, 2, names)["runs"][0]
+    assert worm["generations"][-1]["vsr_vx"] is None and worm["generations"][-1]["ratio"] is None
+    assert worm["ratios_left_out"] == len(lost) and worm["ratios_counted"] == 2 - len(lost)
+
+
+def error_line(capsys, *argv: str) -> str:
+    assert transfer.main(list(argv)) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("transfer.py: error: "), err
+    return err.removeprefix("transfer.py: error: ")
+
+
+def test_bad_run_directories(runs, tmp_path, capsys):
+    vsr = ("--vsr", str(tmp_path))
+    assert error_line(capsys, str(tmp_path / "none"), *vsr).startswith("run=")
+    assert "no config.json" in error_line(capsys, str(tmp_path), *vsr)
+    assert "a file" in error_line(capsys, str(runs / "worm/log.csv"), *vsr)
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "config.json").write_text((runs / "worm/config.json").read_text())
+    (broken / "bests.jsonl").write_text("")
+    assert "empty" in error_line(capsys, str(broken), *vsr)
+    (broken / "bests.jsonl").write_text('{"generation": 0}\n')
+    assert "no generation and genome" in error_line(capsys, str(broken), *vsr)
+    (broken / "bests.jsonl").write_text("{not json\n")
+    assert error_line(capsys, str(broken), *vsr).startswith("run=")
+    (broken / "bests.jsonl").write_text((runs / "worm/bests.jsonl").read_text())
+    (broken / "config.json").write_text('{"preset": "fast"}')
+    assert error_line(capsys, str(broken), *vsr).startswith("run=")
+
+
+def test_a_body_the_driver_cannot_build_is_refused(tmp_path, capsys):
+    evolve(resolve({**TINY, "generations": 0, "sensors": "area"}), tmp_path / "run")
+    message = error_line(capsys, str(tmp_path / "run"), "--vsr", str(tmp_path))
+    assert message.startswith("run=") and "only the worm and the biped" in message
+
+
+def test_missing_driver_build(runs, tmp_path, capsys, monkeypatch):
+    run = str(runs / "worm")
+    message = error_line(capsys, run, "--vsr", str(tmp_path / "none"))
+    assert message.startswith(f"vsr='{tmp_path / 'none'}'") and "no such folder" in message
+    message = error_line(capsys, run, "--vsr", str(tmp_path))
+    assert message.startswith("vsr=") and "classes-main/CL.class" in message
+    monkeypatch.delenv("VSR", raising=False)
+    assert error_line(capsys, run).startswith("vsr=None: give --vsr PATH or set VSR")
+    monkeypatch.setenv("PATH", str(tmp_path))  # a build, but no java
+    for part in ("classes-main/CL.class", "classes-hmsr/it", "classes-dyn4j/org", "lib"):
+        (tmp_path / part).mkdir(parents=True)
+    assert error_line(capsys, run, "--vsr", str(tmp_path)).startswith("java='java': not found")
+
+
+def test_other_bad_options(runs, tmp_path, capsys):
+    run, vsr = str(runs / "worm"), ("--vsr", str(tmp_path))
+    assert error_line(capsys, run, *vsr, "--terrains", "hilly-x").startswith("terrain=")
+    assert error_line(capsys, run, *vsr, "--terrains", ",").startswith("terrains=")
+    assert error_line(capsys, run, *vsr, "--every", "0").startswith("every=")
+    assert error_line(capsys, run, *vsr, "--from", "-1").startswith("from=")
+    assert error_line(capsys, run, *vsr, "--threads", "0").startswith("threads=")
+    assert [t.name for t in transfer.parse_terrains("validation")][-1] == "hilly-1-10-10009"
+
+
+VSR = os.environ.get("VSR")
+
+
+@pytest.mark.skipif(not VSR or not (Path(VSR) / "classes-main/CL.class").exists(),
+                    reason="needs a build of the 2D-VSR-Sim driver in env VSR")
+@pytest.mark.skipif(not transfer.DEFAULT_EXPORT.exists(), reason="no export_genomes.py beside")
+def test_end_to_end(runs):
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks/transfer.py"), str(runs / "worm"),
+                           "--every", "4", "--from", "0", "--terrains", "flat"],
+                          capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    out = json.loads(done.stdout)
+    (run,) = out["runs"]
+    assert [g["generation"] for g in run["generations"]] == [0, 4]
+    assert not run["preset_mismatch"] and out["terrains"] == ["flat"]
+    loaded = transfer.load_run(str(runs / "worm"), 4)
+    somite = evaluate([e["genome"] for e in loaded.entries], [parse_terrain("flat")],
+                      transfer.sim_config(loaded.config))
+    for g, v in zip(run["generations"], somite[:, 0]):
+        assert g["somite_vx"] == v and math.isfinite(g["vsr_vx"])
+        assert g["ratio"] == pytest.approx(g["vsr_vx"] / g["somite_vx"])
+    assert out["shapes"]["worm"]["runs"] == 1

@@ -195,11 +195,12 @@ def test_config_rejects_bad_values():
 
 
 def test_a_short_run_improves(tmp_path):
-    """The demo's setting: best v_x grows clearly, to a walk (seeded, so exact: 0.05 to 0.44
-    m/s, as the README says)."""
+    """The demo's setting, its first 15 generations: best v_x grows clearly, to a walk
+    (seeded, so exact: 0.04 to 1.2 m/s; the demo's 60 generations reach 3.4 m/s, as the README
+    says)."""
     from somite.commands.demo import DEMO
 
-    evolve(resolve(DEMO), tmp_path / "run")
+    evolve(resolve({**DEMO, "generations": 15}), tmp_path / "run")
     table = rows(tmp_path / "run")
     first, last = float(table[0]["best_velocity"]), float(table[-1]["best_velocity"])
     assert last > first + 0.3

@@ -32,36 +32,30 @@ def test_worm_at_rest_settles(worm):
 
 
 def test_dropped_robot_falls_with_g(biped):
-    """Until a corner touches, the centre of mass follows semi-implicit Euler under g exactly
-    (no drag), and the analytic fall with linear drag c, g/c (t - (1 - exp(-c t)) / c), to
-    within 2% with the default drag."""
-    for drag, tolerance in ((0.0, 1e-9), (0.1, 0.02)):
+    """Until a block touches, every block follows dyn4j's integrator exactly: the velocity
+    gains -g dt, then is damped by the factor 1 - c dt, then moves the block; and it does not
+    drift sideways or turn."""
+    for drag in (0.0, 0.1):
         config = quiet(duration=1.0, drag=drag)
         _, trace = simulate([biped], [FLAT], [Zero()], config, record=True)
         touching = trace.contact[0].any(axis=1)
         first_touch = int(np.argmax(touching))
         assert 10 < first_touch < 40  # a 1 m drop takes ~0.45 s
         dt = pack_params(config).dt
-        y0 = trace.com[0, 0, 1]
+        y = trace.com[0, 0, 1]
+        v = 0.0
         for k in range(1, first_touch):
-            n = k * config.substeps
-            if drag == 0.0:
-                expected = y0 - config.gravity * dt * dt * n * (n + 1) / 2
-                assert abs(trace.com[0, k, 1] - expected) < tolerance
-            elif k >= 20:  # from there on the O(dt) error of the integrator (4 substeps)
-                # is under 1.3%
-                t = k / CONTROL_HZ
-                fallen = y0 - trace.com[0, k, 1]
-                expected = config.gravity / drag * (t - (1 - np.exp(-drag * t)) / drag)
-                assert abs(fallen - expected) <= tolerance * expected
+            v = (v - config.gravity * dt) * (1 - drag * dt)
+            y += v * dt
+            assert trace.com[0, k, 1] == pytest.approx(y, abs=1e-9)
         assert np.all(trace.com[0, : first_touch - 1, 0] == trace.com[0, 0, 0])
 
 
 @pytest.mark.slow
 def test_random_bang_bang_never_inverts_or_blows_up(worm, biped):
-    """1000 random bang-bang controllers (switching up to 30 Hz), 30 s on hilly terrain."""
+    """400 random bang-bang controllers (switching up to 30 Hz), 30 s on hilly terrain."""
     rng = np.random.default_rng(1)
-    for body, count in ((worm, 500), (biped, 500)):
+    for body, count in ((worm, 200), (biped, 200)):
         voxels = body.shape.n_voxels
         tables = [Table(rng.choice([-1.0, 1.0], size=(int(rng.integers(2, 121)), voxels)))
                   for _ in range(count)]
@@ -69,10 +63,9 @@ def test_random_bang_bang_never_inverts_or_blows_up(worm, biped):
         outcomes, trace = simulate([body] * count, terrains, tables, quiet(), seeds=0)
         assert all(o.finite for o in outcomes)
         assert np.all(np.isfinite(trace.com))
-        # The signed area (a mirrored voxel is negative) never goes under the orientation
-        # limit, whatever the length limits allow.
-        limit = quiet().min_area_ratio
-        assert trace.min_area.min() >= limit - 0.02
+        # The rope limits keep the blocks apart: no voxel turns inside out (a mirrored
+        # voxel's signed area is negative).
+        assert trace.min_area.min() > 0.2
         assert all(o.min_signed_area_ratio == a for o, a in zip(outcomes, trace.min_area))
 
 
@@ -100,26 +93,6 @@ def test_uphill_gives_less_headway(worm):
     [flat], _ = simulate([worm], [FLAT], [gait], config)
     [uphill], _ = simulate([worm], [parse_terrain("uphill-20")], [gait], config)
     assert 0.0 < uphill.distance < 0.75 * flat.distance
-
-
-def test_mirrored_body_and_actuation_mirror_the_motion():
-    """An L-shaped body and its mirror image, driven by mirrored actuation, move in opposite
-    directions step by step (the physics has no preferred side)."""
-    left = Body.build("10/11", "none")
-    right = Body.build("01/11", "none")
-    steps = np.arange(40)[:, None]
-    columns = np.array([x for x, _ in left.shape.voxels])[None, :]
-    rows = np.sin(2 * np.pi * steps / 40 - columns)
-    # Voxel (x, y) of the left body is voxel (1 - x, y) of the right one.
-    mirror = [right.shape.index(1 - x, y) for x, y in left.shape.voxels]
-    mirrored = np.empty_like(rows)
-    mirrored[:, mirror] = rows
-    config = quiet(duration=6.0, start_gap=200.0)
-    _, trace = simulate([left, right], [FLAT, FLAT], [Table(rows), Table(mirrored)], config)
-    moved = trace.com[:, :, 0] - trace.com[:, :1, 0]  # (2, steps) x displacement
-    reach = np.abs(moved[0]).max()
-    assert reach > 0.3
-    assert np.abs(moved[0] + moved[1]).max() < 0.02 * reach
 
 
 def test_tilt_is_the_angle_between_the_end_columns():

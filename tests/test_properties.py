@@ -101,3 +101,20 @@ def test_random_actuation_never_turns_a_voxel_inside_out(shape, terrain, period,
     [outcome], trace = simulate([Body.build(shape, "none")], [ground], [Table(rows)], config)
     assert outcome.finite and np.all(np.isfinite(trace.com))
     assert trace.min_area[0] > 0.0
+
+
+@settings(max_examples=4, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["worm", "biped"]))
+def test_a_constant_pose_on_flat_ground_stays_put(seed, shape):
+    """Random constant poses (each voxel's actuation U(-1, 1), held from the start): once the
+    robot has landed it does not glide, and its blocks rest on the ground, not in it. The
+    paper's simulator moves such poses by at most 0.015 m/s (shared/reference/closed-loop)."""
+    rng = np.random.default_rng(seed)
+    body = Body.build(shape)
+    poses = [Table(rng.uniform(-1.0, 1.0, size=(1, body.shape.n_voxels))) for _ in range(8)]
+    outcomes, trace = simulate([body] * 8, [flat()] * 8, poses, SimConfig(), seeds=seed,
+                               record=True)
+    speeds = np.abs([o.velocity for o in outcomes])
+    assert speeds.mean() <= 0.005 and speeds.max() <= 0.02, speeds
+    # At rest (the last step), no voxel corner more than 1 cm into the flat ground (y = 0).
+    assert trace.pos[:, -1, :, 1].min() > -0.01

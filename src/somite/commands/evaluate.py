@@ -81,5 +81,6 @@ DIAGNOSTICS = {
     "max_tilt_deg": np.nanmax,
     "flipped_fraction": np.nanmax,
     "max_height": np.nanmax,
+    "min_height": np.nanmin,
 }
 """The outcome's diagnostics, and how the report sums them up over the terrains."""

@@ -46,6 +46,13 @@ class SimConfig:
     every voxel the same ``java.util.Random(0)`` Gaussian sequence, restarted each episode, so
     the seed is ignored (original-system.md section 2.1).
 
+    The physics (:mod:`somite.sim.physics`) takes ``substeps`` steps of 1 / (60 substeps) s per
+    control step (the original: 1), each with ``velocity_iterations`` velocity passes and at
+    most ``position_iterations`` position passes (dyn4j's 10 and 10); ``spring_hz`` and
+    ``damping_ratio`` are the soft springs' (8 Hz, 0.3), ``friction`` is a block's on the ground
+    (the original's mix, sqrt(10 x 0.2)), ``block_friction`` a block's on another block (10);
+    all the original's values (original-system.md section 1), none fitted.
+
     ``voxel_angle``, the voxel's orientation for voxel-frame sensors: ``vector-mean`` (somite)
     is the direction of the sum of the bottom and top side vectors; ``angle-mean`` (the authors'
     code) is the plain mean of the two sides' atan2 angles, which is off by pi when the two
@@ -55,15 +62,17 @@ class SimConfig:
     duration: float = 30.0
     transient: float = 5.0
     start_gap: float = 1.0
-    substeps: int = 4
-    spring_hz: float = 8.022
-    damping_ratio: float = 0.565
+    substeps: int = 1
+    velocity_iterations: int = 10
+    position_iterations: int = 10
+    spring_hz: float = 8.0
+    damping_ratio: float = 0.3
     area_delta: float = 0.225
-    min_area_ratio: float = 0.3
     gravity: float = 9.8
     drag: float = 0.1
-    friction: float = 1.65
-    restitution: float = 0.087
+    friction: float = math.sqrt(10.0 * 0.2)
+    block_friction: float = 10.0
+    restitution: float = 0.1
     noise_sigma: float = 0.01
     lidar_range: float = 10.0
     lidar_angles: tuple[float, ...] = LIDAR_PAPER
@@ -87,20 +96,20 @@ class SimConfig:
         at_most("duration", self.duration, MAX_DURATION)
         if self.transient < 0:
             raise bad("transient", self.transient, "must be zero or positive")
-        _positive_int(self, "substeps", "touch_window", "velocity_window")
+        _positive_int(self, "substeps", "velocity_iterations", "position_iterations",
+                      "touch_window", "velocity_window")
         for name in ("spring_hz", "lidar_range", "velocity_max", "gravity"):
             if not getattr(self, name) > 0:
                 raise bad(name, getattr(self, name), "must be positive")
         non_negative = (
-            "start_gap", "damping_ratio", "drag", "friction", "noise_sigma", "restitution",
+            "start_gap", "damping_ratio", "drag", "friction", "block_friction", "noise_sigma",
+            "restitution",
         )
         for name in non_negative:
             if getattr(self, name) < 0:
                 raise bad(name, getattr(self, name), "must be zero or positive")
         if not 0 <= self.area_delta < 1:
             raise bad("area_delta", self.area_delta, "must be in [0, 1)")
-        if not 0 < self.min_area_ratio < 1:
-            raise bad("min_area_ratio", self.min_area_ratio, "must be in (0, 1)")
         if self.restitution > 1:
             raise bad("restitution", self.restitution, "must be at most 1")
         if len(self.lidar_angles) != 5:
@@ -172,17 +181,19 @@ def preset(name: str, **options) -> SimConfig:
 class Params(NamedTuple):
     """What the kernels read of a :class:`SimConfig`: derived numbers, typed, SI units."""
 
-    dt: float  # [s] one physics substep
-    substeps: int  # physics substeps per control step
-    stiffness: float  # [N/(m kg)] of a spring per kg of its effective mass (``spring_hz``)
-    damping: float  # [N s/(m kg)] the same for damping (``damping_ratio``)
+    dt: float  # [s] one physics step
+    substeps: int  # physics steps per control step
+    velocity_iterations: int  # passes of the velocity solver per step
+    position_iterations: int  # most passes of the position solver per step
+    spring_hz: float  # [Hz] the springs' frequency
+    damping_ratio: float  # the springs' damping ratio
     gravity: float  # [m/s^2]
     drag: float  # [1/s]
-    friction: float  # Coulomb coefficient
+    friction: float  # Coulomb coefficient, block on ground
+    block_friction: float  # Coulomb coefficient, block on block
     restitution: float  # of impacts faster than physics.RESTITUTION_SPEED
     contract: float  # rest-length scale at actuation +1
     expand: float  # rest-length scale at actuation -1
-    min_area: float  # lower limit of a voxel's signed area over its rest area
     noise: float  # sensor noise sigma
     lidar_range: float  # [m]
     lidar_frame: int  # FRAMES index
@@ -199,19 +210,20 @@ class Params(NamedTuple):
 
 def pack_params(config: SimConfig) -> Params:
     """The kernels' view of ``config``."""
-    omega = 2 * math.pi * config.spring_hz
     return Params(
         dt=1.0 / CONTROL_HZ / config.substeps,
         substeps=config.substeps,
-        stiffness=omega**2,
-        damping=2 * config.damping_ratio * omega,
+        velocity_iterations=config.velocity_iterations,
+        position_iterations=config.position_iterations,
+        spring_hz=float(config.spring_hz),
+        damping_ratio=float(config.damping_ratio),
         gravity=float(config.gravity),
         drag=float(config.drag),
         friction=float(config.friction),
+        block_friction=float(config.block_friction),
         restitution=float(config.restitution),
         contract=math.sqrt(1 - config.area_delta),
         expand=math.sqrt(1 + config.area_delta),
-        min_area=float(config.min_area_ratio),
         noise=float(config.noise_sigma),
         lidar_range=float(config.lidar_range),
         lidar_frame=FRAMES.index(config.lidar_frame),

@@ -1,15 +1,23 @@
-"""Physics of one robot: rigid corner bodies joined by damped springs, rope limits, gravity,
-drag and terrain contact.
+"""Physics of one robot: the original's rigid blocks, soft springs, rope limits and welds,
+solved with sequential impulses, as dyn4j 3.3 (the engine under 2D-VSR-Sim) solves them.
 
 Every function here works on one robot's arrays and is called from the episode loop of
 :mod:`somite.tasks.episode`; the batch kernel runs that loop for each robot on its own thread.
-A robot's state is one rigid body per lattice point (the voxels' corner blocks that meet there,
-welded, as in the original): ``pos`` (P, 3) holds each body's centre of mass and angle, ``vel``
-(P, 3) its velocity and angular velocity. The integrator is semi-implicit (symplectic) Euler:
-velocities first from the forces and torques, then positions from the new velocities, then the
-hard constraints (rope limits, each voxel's orientation, contact of the blocks with the
-terrain) act on positions and velocities. The model and its fitted parameters: README, "The
-simulator"; BENCHMARKS.md, "Fidelity".
+A robot's state is one rigid square block per voxel corner (four per voxel, original-system.md
+section 1.2): ``pos`` (P, 3) holds each block's centre and angle, ``vel`` (P, 3) its velocity
+and angular velocity.
+
+One step (dyn4j's ``Island.solve``, original-system.md section 1.1): gravity and damping change
+the velocities; the springs (soft distance joints), rope limits, welds and contacts are set up
+from the current positions and warm-started with last step's impulses; ``velocity_iterations``
+passes over them (joints first, then contacts) bring the velocities to what the constraints
+allow; the positions move with the velocities; ``position_iterations`` passes push the rope
+limits, welds and contacts back to their places (the soft springs get no position pass); and
+the contacts for the next step are found. A contact holds its point still when Coulomb friction
+can, so a robot that does not move its voxels stays where it is. Solving the constraints one
+after the other, not all at once from one state, is what makes the welds between voxels and the
+ground couple neighbouring voxels as in the original. The model and its parameters: README,
+"The simulator"; BENCHMARKS.md, "Fidelity".
 """
 
 from __future__ import annotations
@@ -19,13 +27,50 @@ import math
 from .._jit import njit
 from .config import BLOCK_SIDE, VOXEL_SIDE
 
-CONTACT_TOLERANCE = 0.01
-"""An outline vertex within this height [m] of the ground counts as touching it."""
-RESTITUTION_SPEED = 1.0
-"""[m/s] Slower impacts do not bounce (the original's solver: dyn4j's velocity threshold)."""
 HALF_BLOCK = BLOCK_SIDE / 2
 BLOCK_REACH = HALF_BLOCK * math.sqrt(2.0)
 """Farthest a point of a block is from its centre [m]."""
+RESTITUTION_SPEED = 1.0
+"""[m/s] Slower impacts do not bounce (dyn4j's restitution velocity)."""
+LINEAR_SLOP = 0.005
+"""[m] Penetration and joint error the position passes leave alone (dyn4j's linear
+tolerance)."""
+ANGULAR_SLOP = 2.0 * math.pi / 180.0
+"""[rad] The same for a weld's angle."""
+MAX_CORRECTION = 0.2
+"""[m] Largest position correction of one pass."""
+BAUMGARTE = 0.2
+"""Share of a contact's penetration that one position pass removes."""
+MAX_TRANSLATION = 2.0
+"""[m] Largest move of a body in one step."""
+MAX_ROTATION = 0.5 * math.pi
+"""[rad] Largest turn of a body in one step."""
+WARM_START_DISTANCE = 0.01
+"""[m] A contact point this close to last step's point of the same feature starts from its
+impulses."""
+CONDITION_LIMIT = 1000.0
+"""A two-point contact whose 2x2 system is worse conditioned than this keeps its deeper point."""
+GROUND_DEPTH = 50.0
+"""[m] The ground under each terrain segment is a quadrilateral this deep below the segment's
+lower end (the original's: below the terrain's lowest point; only its sides' height differs)."""
+
+# Columns of a spring's work row (Scratch.spring).
+J_RAX, J_RAY, J_RBX, J_RBY, J_NX, J_NY, J_MASS, J_GAMMA, J_BIAS, J_IMPULSE = range(10)
+N_SPRING_COLUMNS = 10
+# Columns of a rope's work row: direction, effective mass, impulse, active (1) or not (0).
+R_NX, R_NY, R_MASS, R_IMPULSE, R_ACTIVE = range(5)
+N_ROPE_COLUMNS = 5
+# Columns of a weld's work row: the anchor's offset on the second body, the impulse (x, y, angle).
+W_RBX, W_RBY, W_JX, W_JY, W_JZ = range(5)
+N_WELD_COLUMNS = 5
+# Columns of a contact row. A contact pushes body A along the normal and body B (-1: the
+# ground) the other way; LAX.. are the point in A's frame, LBX.. in B's (the world's for the
+# ground). Rows of one contact pair (at most two points) are adjacent; COUNT is their number on
+# the pair's first row and 0 on its second; LIVE is 0 for a point the solver dropped.
+(C_A, C_B, C_FEATURE, C_PX, C_PY, C_DEPTH, C_NX, C_NY, C_LAX, C_LAY, C_LBX, C_LBY, C_RAX,
+ C_RAY, C_RBX, C_RBY, C_MASS_N, C_MASS_T, C_BOUNCE, C_JN, C_JT, C_JP, C_COUNT, C_LIVE,
+ C_MU) = range(25)
+N_CONTACT_COLUMNS = 25
 
 
 @njit(inline="always")
@@ -46,8 +91,7 @@ def spring_length(kind: int, scale: float) -> float:
 def set_rest_lengths(n_springs, kind, owner, actuation, contract, expand, rest):
     """``rest``: the rest length of each spring for its voxel's ``actuation`` (V,): from its
     group's rest length towards its length in a voxel of side ``contract`` x 3 m at +1, of
-    ``expand`` x 3 m at -1, linearly. Arrays, not the :class:`Robot` tuple: this function is
-    not inlined, and passing the tuples costs 1-2% of the kernel's time."""
+    ``expand`` x 3 m at -1, linearly."""
     for s in range(n_springs):
         a = min(1.0, max(-1.0, actuation[owner[s]]))
         k = kind[s]
@@ -60,7 +104,7 @@ def set_rest_lengths(n_springs, kind, owner, actuation, contract, expand, rest):
 
 @njit(inline="always")
 def turn(n_points, pos, cos, sin):
-    """Each body's rotation for this substep."""
+    """Each body's rotation, from its angle."""
     for p in range(n_points):
         cos[p] = math.cos(pos[p, 2])
         sin[p] = math.sin(pos[p, 2])
@@ -73,166 +117,492 @@ def turned(p, ox, oy, cos, sin):
 
 
 @njit(inline="always")
-def integrate(robot, scratch, pos, vel, params):
-    """One semi-implicit Euler step of springs, gravity and drag.
+def world_point(p, ox, oy, pos, cos, sin):
+    """World position of offset (ox, oy) of body p."""
+    return (pos[p, 0] + cos[p] * ox - sin[p] * oy, pos[p, 1] + sin[p] * ox + cos[p] * oy)
 
-    A spring's stiffness and damping are ``params.stiffness`` and ``params.damping`` times its
-    effective mass (``robot.spring_mass``), as the original sets a joint's from its frequency
-    and damping ratio. ``scratch.force`` must hold zeros on entry and holds zeros on exit;
-    ``scratch.cos`` and ``scratch.sin`` must hold the bodies' rotations on entry, and hold the
-    new ones on exit. The springs go in three passes (gather, forces, scatter) so that the
-    middle one has no branch and no indirect access, and compiles to SIMD code; ``scratch.rax``
-    .. ``scratch.tb`` are (S,) work arrays, separate so that the compiler knows they do not
-    overlap.
-    """
-    n_points = robot.n_points
-    n_springs = robot.n_springs
+
+@njit(inline="always")
+def push(vel, a, b, rax, ray, rbx, rby, jx, jy, inv_mass, inv_inertia):
+    """Impulse (jx, jy) on body a at offset ra, its opposite on body b at rb (b < 0: the
+    ground). Also moves positions: ``vel`` may be ``pos``, the same arithmetic."""
+    vel[a, 0] += jx * inv_mass[a]
+    vel[a, 1] += jy * inv_mass[a]
+    vel[a, 2] += inv_inertia[a] * (rax * jy - ray * jx)
+    if b >= 0:
+        vel[b, 0] -= jx * inv_mass[b]
+        vel[b, 1] -= jy * inv_mass[b]
+        vel[b, 2] -= inv_inertia[b] * (rbx * jy - rby * jx)
+
+
+@njit(inline="always")
+def relative_velocity(vel, a, b, rax, ray, rbx, rby):
+    """Velocity of body a's point ra relative to body b's point rb (b < 0: the ground)."""
+    vx = vel[a, 0] - vel[a, 2] * ray
+    vy = vel[a, 1] + vel[a, 2] * rax
+    if b >= 0:
+        vx -= vel[b, 0] - vel[b, 2] * rby
+        vy -= vel[b, 1] + vel[b, 2] * rbx
+    return vx, vy
+
+
+@njit(inline="always")
+def start_springs(robot, scratch, pos, vel, params):
+    """Set up the soft springs for this step (a damped spring as a soft constraint: its
+    stiffness and damping from the frequency and damping ratio and the effective mass along
+    it, as dyn4j's DistanceJoint) and apply last step's impulses."""
     ends = robot.ends
     anchor = robot.anchor
-    spring_mass = robot.spring_mass
-    inv_mass = robot.inv_mass
-    inv_inertia = robot.inv_inertia
     rest = scratch.rest
-    force = scratch.force
+    work = scratch.spring
     cos = scratch.cos
     sin = scratch.sin
-    raxs = scratch.rax
-    rays = scratch.ray
-    rbxs = scratch.rbx
-    rbys = scratch.rby
-    dxs = scratch.dx
-    dys = scratch.dy
-    dvxs = scratch.dvx
-    dvys = scratch.dvy
-    fxs = scratch.fx
-    fys = scratch.fy
-    tas = scratch.ta
-    tbs = scratch.tb
+    inv_mass = robot.inv_mass
+    inv_inertia = robot.inv_inertia
     dt = params.dt
-    k = params.stiffness
-    c = params.damping
-    g = params.gravity
-    drag = params.drag
-    for s in range(n_springs):
+    omega = 2.0 * math.pi * params.spring_hz
+    for s in range(robot.n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
         rax, ray = turned(a, anchor[s, 0], anchor[s, 1], cos, sin)
         rbx, rby = turned(b, anchor[s, 2], anchor[s, 3], cos, sin)
-        raxs[s] = rax
-        rays[s] = ray
-        rbxs[s] = rbx
-        rbys[s] = rby
-        dxs[s] = pos[b, 0] + rbx - pos[a, 0] - rax
-        dys[s] = pos[b, 1] + rby - pos[a, 1] - ray
-        dvxs[s] = vel[b, 0] - vel[b, 2] * rby - vel[a, 0] + vel[a, 2] * ray
-        dvys[s] = vel[b, 1] + vel[b, 2] * rbx - vel[a, 1] - vel[a, 2] * rax
-    for s in range(n_springs):
-        dx = dxs[s]
-        dy = dys[s]
-        length = math.sqrt(dx * dx + dy * dy)
-        inv = 1.0 / length
-        closing = (dvxs[s] * dx + dvys[s] * dy) * inv
-        f = spring_mass[s] * (k * (length - rest[s]) + c * closing) * inv
-        fx = f * dx
-        fy = f * dy
-        fxs[s] = fx
-        fys[s] = fy
-        tas[s] = raxs[s] * fy - rays[s] * fx
-        tbs[s] = rbxs[s] * fy - rbys[s] * fx
-    for s in range(n_springs):
+        nx = pos[a, 0] + rax - pos[b, 0] - rbx
+        ny = pos[a, 1] + ray - pos[b, 1] - rby
+        length = math.sqrt(nx * nx + ny * ny)
+        if length < LINEAR_SLOP:
+            nx = ny = 0.0
+        else:
+            nx /= length
+            ny /= length
+        cra = rax * ny - ray * nx
+        crb = rbx * ny - rby * nx
+        w = inv_mass[a] + inv_inertia[a] * cra * cra + inv_mass[b] + inv_inertia[b] * crb * crb
+        mass = 1.0 / w if w > 0.0 else 0.0
+        stiffness = mass * omega * omega
+        damping = 2.0 * mass * params.damping_ratio * omega
+        gamma = dt * (damping + dt * stiffness)
+        gamma = 1.0 / gamma if gamma > 0.0 else 0.0
+        w += gamma
+        work[s, J_RAX] = rax
+        work[s, J_RAY] = ray
+        work[s, J_RBX] = rbx
+        work[s, J_RBY] = rby
+        work[s, J_NX] = nx
+        work[s, J_NY] = ny
+        work[s, J_MASS] = 1.0 / w if w > 0.0 else 0.0
+        work[s, J_GAMMA] = gamma
+        work[s, J_BIAS] = (length - rest[s]) * dt * stiffness * gamma
+        j = work[s, J_IMPULSE]
+        push(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass, inv_inertia)
+
+
+@njit(inline="always")
+def solve_springs(robot, scratch, vel):
+    ends = robot.ends
+    work = scratch.spring
+    for s in range(robot.n_springs):
         a = ends[s, 0]
         b = ends[s, 1]
-        force[a, 0] += fxs[s]
-        force[a, 1] += fys[s]
-        force[a, 2] += tas[s]
-        force[b, 0] -= fxs[s]
-        force[b, 1] -= fys[s]
-        force[b, 2] -= tbs[s]
-    for p in range(n_points):
-        step = inv_mass[p] * dt
-        vel[p, 0] += force[p, 0] * step - drag * vel[p, 0] * dt
-        vel[p, 1] += force[p, 1] * step - drag * vel[p, 1] * dt - g * dt
-        vel[p, 2] += force[p, 2] * inv_inertia[p] * dt - drag * vel[p, 2] * dt
-        pos[p, 0] += vel[p, 0] * dt
-        pos[p, 1] += vel[p, 1] * dt
-        pos[p, 2] += vel[p, 2] * dt
-        cos[p] = math.cos(pos[p, 2])
-        sin[p] = math.sin(pos[p, 2])
-        force[p, 0] = 0.0
-        force[p, 1] = 0.0
-        force[p, 2] = 0.0
+        rax = work[s, J_RAX]
+        ray = work[s, J_RAY]
+        rbx = work[s, J_RBX]
+        rby = work[s, J_RBY]
+        vx, vy = relative_velocity(vel, a, b, rax, ray, rbx, rby)
+        nx = work[s, J_NX]
+        ny = work[s, J_NY]
+        j = -work[s, J_MASS] * (nx * vx + ny * vy + work[s, J_BIAS]
+                                + work[s, J_GAMMA] * work[s, J_IMPULSE])
+        work[s, J_IMPULSE] += j
+        push(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, robot.inv_mass, robot.inv_inertia)
 
 
 @njit(inline="always")
-def _shift(p, rx, ry, nx, ny, amount, inv_mass, inv_inertia, state):
-    """Apply ``amount`` along (nx, ny) at offset (rx, ry) of body p to ``state`` (a position
-    correction or an impulse: the same arithmetic)."""
-    state[p, 0] += nx * amount * inv_mass[p]
-    state[p, 1] += ny * amount * inv_mass[p]
-    state[p, 2] += (rx * ny - ry * nx) * amount * inv_inertia[p]
-
-
-@njit(_nrt=False)
-def keep_apart(a, b, rax, ray, rbx, rby, limit, inv_mass, inv_inertia, pos, vel, cos, sin):
-    """Push the anchors (offsets ``ra``, ``rb`` in the world frame) of bodies a and b apart to
-    distance ``limit`` and stop their closing, with the bodies' masses and inertias."""
-    dx = pos[b, 0] + rbx - pos[a, 0] - rax
-    dy = pos[b, 1] + rby - pos[a, 1] - ray
-    length = math.sqrt(dx * dx + dy * dy)
-    if length < 1e-9:
-        dx = 0.0
-        dy = 1.0
-        length = 1.0
-    nx = dx / length
-    ny = dy / length
-    rna = rax * ny - ray * nx
-    rnb = rbx * ny - rby * nx
-    w = (inv_mass[a] + inv_mass[b] + rna * rna * inv_inertia[a] + rnb * rnb * inv_inertia[b])
-    push = (limit - length) / w
-    _shift(a, rax, ray, nx, ny, -push, inv_mass, inv_inertia, pos)
-    _shift(b, rbx, rby, nx, ny, push, inv_mass, inv_inertia, pos)
-    dvx = vel[b, 0] - vel[b, 2] * rby - vel[a, 0] + vel[a, 2] * ray
-    dvy = vel[b, 1] + vel[b, 2] * rbx - vel[a, 1] - vel[a, 2] * rax
-    closing = dvx * nx + dvy * ny
-    if closing < 0.0:
-        _shift(a, rax, ray, nx, ny, closing / w, inv_mass, inv_inertia, vel)
-        _shift(b, rbx, rby, nx, ny, -closing / w, inv_mass, inv_inertia, vel)
-    for p in (a, b):
-        cos[p] = math.cos(pos[p, 2])
-        sin[p] = math.sin(pos[p, 2])
-
-
-@njit(inline="always")
-def keep_ropes(robot, scratch, pos, vel):
-    """Hard limit: the centres of a voxel's adjacent blocks stay at least one block side apart,
-    so the blocks never overlap and no controller can collapse a voxel (the original's rope
-    joints; inversion is :func:`keep_orientation`'s)."""
+def start_ropes(robot, scratch, pos, vel):
+    """Rope limits between the centres of a voxel's adjacent blocks: active while the blocks
+    are closer than one block side (they would overlap), as dyn4j's RopeJoint with a lower
+    limit only; while active, the limit holds the distance in both directions."""
     ends = robot.rope_ends
-    anchor = robot.rope_anchor
-    cos = scratch.cos
-    sin = scratch.sin
-    limit2 = BLOCK_SIDE * BLOCK_SIDE
+    work = scratch.rope
     for r in range(robot.n_ropes):
         a = ends[r, 0]
         b = ends[r, 1]
-        rax, ray = turned(a, anchor[r, 0], anchor[r, 1], cos, sin)
-        rbx, rby = turned(b, anchor[r, 2], anchor[r, 3], cos, sin)
-        dx = pos[b, 0] + rbx - pos[a, 0] - rax
-        dy = pos[b, 1] + rby - pos[a, 1] - ray
-        if dx * dx + dy * dy < limit2:
-            keep_apart(a, b, rax, ray, rbx, rby, BLOCK_SIDE, robot.inv_mass, robot.inv_inertia,
-                       pos, vel, cos, sin)
+        nx = pos[a, 0] - pos[b, 0]
+        ny = pos[a, 1] - pos[b, 1]
+        length = math.sqrt(nx * nx + ny * ny)
+        if length < LINEAR_SLOP:
+            nx = ny = 0.0
+        else:
+            nx /= length
+            ny /= length
+        if length < BLOCK_SIDE:
+            w = robot.inv_mass[a] + robot.inv_mass[b]
+            work[r, R_NX] = nx
+            work[r, R_NY] = ny
+            work[r, R_MASS] = 1.0 / w
+            work[r, R_ACTIVE] = 1.0
+            j = work[r, R_IMPULSE]
+            push(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, robot.inv_mass,
+                 robot.inv_inertia)
+        else:
+            work[r, R_ACTIVE] = 0.0
+            work[r, R_IMPULSE] = 0.0
 
 
 @njit(inline="always")
-def highest_ground(xs, ys, n, first, hi_x) -> float:
-    """The highest terrain point from segment ``first`` to x = hi_x."""
-    i = first
-    top = max(ys[i], ys[i + 1])
-    while i + 1 < n - 1 and xs[i + 1] < hi_x:
-        i += 1
-        top = max(top, ys[i + 1])
-    return top
+def solve_ropes(robot, scratch, vel):
+    ends = robot.rope_ends
+    work = scratch.rope
+    for r in range(robot.n_ropes):
+        if work[r, R_ACTIVE] == 0.0:
+            continue
+        a = ends[r, 0]
+        b = ends[r, 1]
+        nx = work[r, R_NX]
+        ny = work[r, R_NY]
+        j = -work[r, R_MASS] * (nx * (vel[a, 0] - vel[b, 0]) + ny * (vel[a, 1] - vel[b, 1]))
+        work[r, R_IMPULSE] += j
+        push(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, robot.inv_mass, robot.inv_inertia)
+
+
+@njit(inline="always")
+def fix_ropes(robot, pos) -> bool:
+    """One position pass over the active rope limits; whether they all hold."""
+    ends = robot.rope_ends
+    held = True
+    for r in range(robot.n_ropes):
+        a = ends[r, 0]
+        b = ends[r, 1]
+        nx = pos[a, 0] - pos[b, 0]
+        ny = pos[a, 1] - pos[b, 1]
+        length = math.sqrt(nx * nx + ny * ny)
+        if length >= BLOCK_SIDE:
+            continue
+        if length > 0.0:
+            nx /= length
+            ny /= length
+        error = max(length - BLOCK_SIDE, -MAX_CORRECTION)
+        j = -error / (robot.inv_mass[a] + robot.inv_mass[b])
+        push(pos, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, robot.inv_mass, robot.inv_inertia)
+        if -error >= LINEAR_SLOP:
+            held = False
+    return held
+
+
+@njit(inline="always")
+def solve33(a00, a01, a02, a11, a12, a22, bx, by, bz):
+    """x of the symmetric system A x = b (Cramer's rule; 0 if A is singular)."""
+    c00 = a11 * a22 - a12 * a12
+    c01 = a01 * a22 - a12 * a02
+    c02 = a01 * a12 - a11 * a02
+    det = a00 * c00 - a01 * c01 + a02 * c02
+    if det != 0.0:
+        det = 1.0 / det
+    x = det * (bx * c00 - a01 * (by * a22 - a12 * bz) + a02 * (by * a12 - a11 * bz))
+    y = det * (a00 * (by * a22 - bz * a12) - bx * c01 + a02 * (a01 * bz - by * a02))
+    z = det * (a00 * (a11 * bz - a12 * by) - a01 * (a01 * bz - by * a02) + bx * c02)
+    return x, y, z
+
+
+@njit(inline="always")
+def weld_matrix(ima, iia, imb, iib, rbx, rby):
+    """The weld's 3x3 effective-mass matrix (its anchor sits at the first body's centre)."""
+    return (ima + imb + rby * rby * iib, -rby * rbx * iib, -rby * iib,
+            ima + imb + rbx * rbx * iib, rbx * iib, iia + iib)
+
+
+@njit(inline="always")
+def weld_push(state, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia):
+    state[a, 0] += jx * inv_mass[a]
+    state[a, 1] += jy * inv_mass[a]
+    state[a, 2] += inv_inertia[a] * jz
+    state[b, 0] -= jx * inv_mass[b]
+    state[b, 1] -= jy * inv_mass[b]
+    state[b, 2] -= inv_inertia[b] * (rbx * jy - rby * jx + jz)
+
+
+@njit(inline="always")
+def start_welds(robot, scratch, vel):
+    ends = robot.weld_ends
+    work = scratch.weld
+    for q in range(robot.n_welds):
+        a = ends[q, 0]
+        b = ends[q, 1]
+        rbx, rby = turned(b, robot.weld_anchor[q, 0], robot.weld_anchor[q, 1], scratch.cos,
+                          scratch.sin)
+        work[q, W_RBX] = rbx
+        work[q, W_RBY] = rby
+        weld_push(vel, a, b, rbx, rby, work[q, W_JX], work[q, W_JY], work[q, W_JZ],
+                  robot.inv_mass, robot.inv_inertia)
+
+
+@njit(inline="always")
+def solve_welds(robot, scratch, vel):
+    ends = robot.weld_ends
+    work = scratch.weld
+    inv_mass = robot.inv_mass
+    inv_inertia = robot.inv_inertia
+    for q in range(robot.n_welds):
+        a = ends[q, 0]
+        b = ends[q, 1]
+        rbx = work[q, W_RBX]
+        rby = work[q, W_RBY]
+        k00, k01, k02, k11, k12, k22 = weld_matrix(inv_mass[a], inv_inertia[a], inv_mass[b],
+                                                   inv_inertia[b], rbx, rby)
+        vx, vy = relative_velocity(vel, a, b, 0.0, 0.0, rbx, rby)
+        jx, jy, jz = solve33(k00, k01, k02, k11, k12, k22, -vx, -vy, -(vel[a, 2] - vel[b, 2]))
+        work[q, W_JX] += jx
+        work[q, W_JY] += jy
+        work[q, W_JZ] += jz
+        weld_push(vel, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia)
+
+
+@njit(inline="always")
+def fix_welds(robot, pos, cos, sin) -> bool:
+    """One position pass over the welds (the whole error at once, as dyn4j's rigid
+    WeldJoint); whether they all hold. Updates the rotations it changes."""
+    ends = robot.weld_ends
+    inv_mass = robot.inv_mass
+    inv_inertia = robot.inv_inertia
+    held = True
+    for q in range(robot.n_welds):
+        a = ends[q, 0]
+        b = ends[q, 1]
+        rbx, rby = turned(b, robot.weld_anchor[q, 0], robot.weld_anchor[q, 1], cos, sin)
+        cx = pos[a, 0] - pos[b, 0] - rbx
+        cy = pos[a, 1] - pos[b, 1] - rby
+        angle = pos[a, 2] - pos[b, 2]
+        if angle < -math.pi:
+            angle += 2.0 * math.pi
+        if angle > math.pi:
+            angle -= 2.0 * math.pi
+        k00, k01, k02, k11, k12, k22 = weld_matrix(inv_mass[a], inv_inertia[a], inv_mass[b],
+                                                   inv_inertia[b], rbx, rby)
+        jx, jy, jz = solve33(k00, k01, k02, k11, k12, k22, -cx, -cy, -angle)
+        weld_push(pos, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia)
+        for p in (a, b):
+            cos[p] = math.cos(pos[p, 2])
+            sin[p] = math.sin(pos[p, 2])
+        if math.sqrt(cx * cx + cy * cy) > LINEAR_SLOP or abs(angle) > ANGULAR_SLOP:
+            held = False
+    return held
+
+
+@njit(inline="always")
+def start_contacts(robot, scratch, pos, vel, params):
+    """Set up this step's contacts (found at the end of the last step) and apply their
+    warm-start impulses."""
+    c = scratch.contacts
+    inv_mass = robot.inv_mass
+    inv_inertia = robot.inv_inertia
+    n = scratch.counts[0]
+    for k in range(n):
+        a = int(c[k, C_A])
+        b = int(c[k, C_B])
+        nx = c[k, C_NX]
+        ny = c[k, C_NY]
+        rax = c[k, C_PX] - pos[a, 0]
+        ray = c[k, C_PY] - pos[a, 1]
+        rbx = rby = 0.0
+        if b >= 0:
+            rbx = c[k, C_PX] - pos[b, 0]
+            rby = c[k, C_PY] - pos[b, 1]
+        c[k, C_RAX] = rax
+        c[k, C_RAY] = ray
+        c[k, C_RBX] = rbx
+        c[k, C_RBY] = rby
+        ima = inv_mass[a]
+        iia = inv_inertia[a]
+        imb = inv_mass[b] if b >= 0 else 0.0
+        iib = inv_inertia[b] if b >= 0 else 0.0
+        rna = rax * ny - ray * nx
+        rnb = rbx * ny - rby * nx
+        c[k, C_MASS_N] = 1.0 / (ima + imb + iia * rna * rna + iib * rnb * rnb)
+        rta = rax * (-nx) - ray * ny
+        rtb = rbx * (-nx) - rby * ny
+        c[k, C_MASS_T] = 1.0 / (ima + imb + iia * rta * rta + iib * rtb * rtb)
+        vx, vy = relative_velocity(vel, a, b, rax, ray, rbx, rby)
+        vn = vx * nx + vy * ny
+        c[k, C_BOUNCE] = -params.restitution * vn if vn < -RESTITUTION_SPEED else 0.0
+        c[k, C_JP] = 0.0
+    for k in range(n):
+        if c[k, C_COUNT] != 2.0:
+            continue
+        a = int(c[k, C_A])
+        b = int(c[k, C_B])
+        k00, k01, k11 = pair_matrix(c, k, a, b, inv_mass, inv_inertia)
+        if not k00 * k00 < CONDITION_LIMIT * (k00 * k11 - k01 * k01):
+            drop = k + 1 if c[k, C_DEPTH] > c[k + 1, C_DEPTH] else k
+            c[drop, C_LIVE] = 0.0
+    for k in range(n):
+        if c[k, C_LIVE] == 0.0:
+            continue
+        a = int(c[k, C_A])
+        b = int(c[k, C_B])
+        nx = c[k, C_NX]
+        ny = c[k, C_NY]
+        jn = c[k, C_JN]
+        jt = c[k, C_JT]
+        push(vel, a, b, c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY],
+             nx * jn + ny * jt, ny * jn - nx * jt, inv_mass, inv_inertia)
+
+
+@njit(inline="always")
+def pair_matrix(c, k, a, b, inv_mass, inv_inertia):
+    """The 2x2 normal-impulse matrix of the contact pair at rows k, k + 1."""
+    nx = c[k, C_NX]
+    ny = c[k, C_NY]
+    m = inv_mass[a] + (inv_mass[b] if b >= 0 else 0.0)
+    iia = inv_inertia[a]
+    iib = inv_inertia[b] if b >= 0 else 0.0
+    r1a = c[k, C_RAX] * ny - c[k, C_RAY] * nx
+    r1b = c[k, C_RBX] * ny - c[k, C_RBY] * nx
+    r2a = c[k + 1, C_RAX] * ny - c[k + 1, C_RAY] * nx
+    r2b = c[k + 1, C_RBX] * ny - c[k + 1, C_RBY] * nx
+    return (m + iia * r1a * r1a + iib * r1b * r1b, m + iia * r1a * r2a + iib * r1b * r2b,
+            m + iia * r2a * r2a + iib * r2b * r2b)
+
+
+@njit(inline="always")
+def solve_normal(c, k, vel, inv_mass, inv_inertia):
+    a = int(c[k, C_A])
+    b = int(c[k, C_B])
+    nx = c[k, C_NX]
+    ny = c[k, C_NY]
+    vx, vy = relative_velocity(vel, a, b, c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY])
+    j = -c[k, C_MASS_N] * (vx * nx + vy * ny - c[k, C_BOUNCE])
+    j0 = c[k, C_JN]
+    c[k, C_JN] = max(j0 + j, 0.0)
+    j = c[k, C_JN] - j0
+    push(vel, a, b, c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY], nx * j, ny * j,
+         inv_mass, inv_inertia)
+
+
+@njit(inline="always")
+def solve_pair(c, k, vel, inv_mass, inv_inertia):
+    """Both normal impulses of a two-point contact at once (the block solver of Box2D and
+    dyn4j: the first of the four cases, both pushing, one pushing, neither, that holds)."""
+    a = int(c[k, C_A])
+    b = int(c[k, C_B])
+    nx = c[k, C_NX]
+    ny = c[k, C_NY]
+    k00, k01, k11 = pair_matrix(c, k, a, b, inv_mass, inv_inertia)
+    det = k00 * k11 - k01 * k01
+    i00 = k11 / det
+    i01 = -k01 / det
+    i11 = k00 / det
+    a1 = c[k, C_JN]
+    a2 = c[k + 1, C_JN]
+    v1x, v1y = relative_velocity(vel, a, b, c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY])
+    v2x, v2y = relative_velocity(vel, a, b, c[k + 1, C_RAX], c[k + 1, C_RAY], c[k + 1, C_RBX],
+                                 c[k + 1, C_RBY])
+    b1 = v1x * nx + v1y * ny - c[k, C_BOUNCE] - (k00 * a1 + k01 * a2)
+    b2 = v2x * nx + v2y * ny - c[k + 1, C_BOUNCE] - (k01 * a1 + k11 * a2)
+    x1 = -(i00 * b1 + i01 * b2)
+    x2 = -(i01 * b1 + i11 * b2)
+    if not (x1 >= 0.0 and x2 >= 0.0):
+        x1 = -c[k, C_MASS_N] * b1
+        x2 = 0.0
+        if not (x1 >= 0.0 and k01 * x1 + b2 >= 0.0):
+            x1 = 0.0
+            x2 = -c[k + 1, C_MASS_N] * b2
+            if not (x2 >= 0.0 and k01 * x2 + b1 >= 0.0):
+                x1 = x2 = 0.0
+                if not (b1 >= 0.0 and b2 >= 0.0):
+                    return
+    d1 = x1 - a1
+    d2 = x2 - a2
+    push(vel, a, b, c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY], nx * d1, ny * d1,
+         inv_mass, inv_inertia)
+    push(vel, a, b, c[k + 1, C_RAX], c[k + 1, C_RAY], c[k + 1, C_RBX], c[k + 1, C_RBY],
+         nx * d2, ny * d2, inv_mass, inv_inertia)
+    c[k, C_JN] = x1
+    c[k + 1, C_JN] = x2
+
+
+@njit(inline="always")
+def solve_contacts(robot, scratch, vel):
+    """One velocity pass over the contacts, pair by pair: friction first (within mu times the
+    normal impulse), then the normal impulses."""
+    c = scratch.contacts
+    inv_mass = robot.inv_mass
+    inv_inertia = robot.inv_inertia
+    n = scratch.counts[0]
+    k = 0
+    while k < n:
+        count = int(c[k, C_COUNT])
+        for i in range(k, k + count):
+            if c[i, C_LIVE] == 0.0:
+                continue
+            a = int(c[i, C_A])
+            b = int(c[i, C_B])
+            tx = c[i, C_NY]
+            ty = -c[i, C_NX]
+            vx, vy = relative_velocity(vel, a, b, c[i, C_RAX], c[i, C_RAY], c[i, C_RBX],
+                                       c[i, C_RBY])
+            j = -c[i, C_MASS_T] * (vx * tx + vy * ty)
+            limit = c[i, C_MU] * c[i, C_JN]
+            j0 = c[i, C_JT]
+            c[i, C_JT] = max(-limit, min(j0 + j, limit))
+            j = c[i, C_JT] - j0
+            push(vel, a, b, c[i, C_RAX], c[i, C_RAY], c[i, C_RBX], c[i, C_RBY], tx * j, ty * j,
+                 inv_mass, inv_inertia)
+        if count == 2 and c[k, C_LIVE] != 0.0 and c[k + 1, C_LIVE] != 0.0:
+            solve_pair(c, k, vel, inv_mass, inv_inertia)
+        else:
+            for i in range(k, k + count):
+                if c[i, C_LIVE] != 0.0:
+                    solve_normal(c, i, vel, inv_mass, inv_inertia)
+        k += count
+
+
+@njit(inline="always")
+def fix_contacts(robot, scratch, pos) -> bool:
+    """One position pass over the contacts: each pushes its bodies apart by a share
+    (BAUMGARTE) of its penetration beyond LINEAR_SLOP; whether none is deeper than three
+    times LINEAR_SLOP."""
+    c = scratch.contacts
+    cos = scratch.cos
+    sin = scratch.sin
+    inv_mass = robot.inv_mass
+    inv_inertia = robot.inv_inertia
+    deepest = 0.0
+    for k in range(scratch.counts[0]):
+        if c[k, C_LIVE] == 0.0:
+            continue
+        a = int(c[k, C_A])
+        b = int(c[k, C_B])
+        nx = c[k, C_NX]
+        ny = c[k, C_NY]
+        rax, ray = turned(a, c[k, C_LAX], c[k, C_LAY], cos, sin)
+        px = pos[a, 0] + rax
+        py = pos[a, 1] + ray
+        rbx = rby = 0.0
+        if b >= 0:
+            rbx, rby = turned(b, c[k, C_LBX], c[k, C_LBY], cos, sin)
+            qx = pos[b, 0] + rbx
+            qy = pos[b, 1] + rby
+        else:
+            qx = c[k, C_LBX]
+            qy = c[k, C_LBY]
+        separation = (px - qx) * nx + (py - qy) * ny - c[k, C_DEPTH]
+        deepest = min(deepest, separation)
+        correction = BAUMGARTE * min(max(separation + LINEAR_SLOP, -MAX_CORRECTION), 0.0)
+        rna = rax * ny - ray * nx
+        rnb = rbx * ny - rby * nx
+        w = inv_mass[a] + inv_inertia[a] * rna * rna
+        if b >= 0:
+            w += inv_mass[b] + inv_inertia[b] * rnb * rnb
+        j = -correction / w
+        j0 = c[k, C_JP]
+        c[k, C_JP] = max(j0 + j, 0.0)
+        j = c[k, C_JP] - j0
+        push(pos, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass, inv_inertia)
+        cos[a] = math.cos(pos[a, 2])
+        sin[a] = math.sin(pos[a, 2])
+        if b >= 0:
+            cos[b] = math.cos(pos[b, 2])
+            sin[b] = math.sin(pos[b, 2])
+    return deepest >= -3.0 * LINEAR_SLOP
 
 
 @njit(inline="always")
@@ -255,355 +625,384 @@ def ground_height(xs, ys, n, x, guess) -> float:
 
 
 @njit(inline="always")
-def world_point(p, ox, oy, pos, cos, sin):
-    """World position of offset (ox, oy) of body p."""
-    return (pos[p, 0] + cos[p] * ox - sin[p] * oy, pos[p, 1] + sin[p] * ox + cos[p] * oy)
-
-
-@njit(_nrt=False)
-def touch(p, x, y, nx, ny, depth, mu, restitution, inv_mass, inv_inertia, pos, vel, dpos, dvel,
-          hits):
-    """Body p's point (x, y) is ``depth`` inside the ground, whose surface normal there is
-    (nx, ny): add to ``dpos``, ``dvel`` (P, 3) what pushes the body out along the normal and
-    what the ground's impulse does to an approaching point, all through the body's mass and
-    inertia, as if this were its only contact; count them in ``hits`` (P, 2).
-
-    The impulse stops the point's approach (bouncing back ``restitution`` of an approach
-    faster than RESTITUTION_SPEED) and, when Coulomb friction can (within ``mu`` times the
-    normal impulse), its sliding; otherwise it slides, with friction mu times the normal
-    impulse, the way the impulse that would have stopped it points. The normal and the
-    friction impulse are solved together: each turns the body, which moves the point along the
-    other's direction too. :func:`settle` then applies each body's mean. Contacts computed
-    from one state and averaged do not depend on the order in which they are found, so a robot
-    and its mirror image move as mirror images.
-    """
-    rx = x - pos[p, 0]
-    ry = y - pos[p, 1]
-    tx = ny
-    ty = -nx
-    rn = rx * ny - ry * nx
-    rt = rx * ty - ry * tx
-    # How an impulse along the normal / tangent changes the point's velocity along each.
-    k_nn = inv_mass[p] + rn * rn * inv_inertia[p]
-    k_tt = inv_mass[p] + rt * rt * inv_inertia[p]
-    k_nt = rn * rt * inv_inertia[p]
-    _shift(p, rx, ry, nx, ny, depth / k_nn, inv_mass, inv_inertia, dpos)
-    hits[p, 0] += 1.0
-    vx = vel[p, 0] - vel[p, 2] * ry
-    vy = vel[p, 1] + vel[p, 2] * rx
-    vn = vx * nx + vy * ny
-    if vn >= 0.0:
-        return
-    vt = vx * tx + vy * ty
-    bounce = restitution if vn < -RESTITUTION_SPEED else 0.0
-    want_n = -(1.0 + bounce) * vn
-    det = k_nn * k_tt - k_nt * k_nt
-    jn = (k_tt * want_n + k_nt * vt) / det  # the point sticks
-    jt = (-k_nn * vt - k_nt * want_n) / det
-    if jn < 0.0 or abs(jt) > mu * jn:
-        # It slides: friction at its Coulomb limit, the way the impulse that would have
-        # stopped it pushes. (The sliding before the impulse can point the other way, or be
-        # zero.) Then k_nn + side * mu * k_nt > 0: were it not, the point would have stuck.
-        side = 1.0 if jt > 0.0 else -1.0
-        jn = want_n / (k_nn + side * mu * k_nt)
-        jt = side * mu * jn
-    _shift(p, rx, ry, nx, ny, jn, inv_mass, inv_inertia, dvel)
-    _shift(p, rx, ry, tx, ty, jt, inv_mass, inv_inertia, dvel)
-    hits[p, 1] += 1.0
+def block_polygon(p, pos, cos, sin, poly):
+    """Body p's square into ``poly`` (4, 4): vertices x, y and the outward normal of the edge
+    from each vertex to the next, counter-clockwise from the lower left (in its own frame)."""
+    for j in range(4):
+        lx = HALF_BLOCK if j == 1 or j == 2 else -HALF_BLOCK
+        ly = HALF_BLOCK if j >= 2 else -HALF_BLOCK
+        poly[j, 0] = pos[p, 0] + cos[p] * lx - sin[p] * ly
+        poly[j, 1] = pos[p, 1] + sin[p] * lx + cos[p] * ly
+        nx = 0.0
+        ny = 0.0
+        if j == 0:
+            ny = -1.0
+        elif j == 1:
+            nx = 1.0
+        elif j == 2:
+            ny = 1.0
+        else:
+            nx = -1.0
+        poly[j, 2] = cos[p] * nx - sin[p] * ny
+        poly[j, 3] = sin[p] * nx + cos[p] * ny
 
 
 @njit(inline="always")
-def settle(n_points, dpos, dvel, hits, pos, vel, cos, sin):
-    """Apply to each body the mean of its contacts' corrections (:func:`touch`): of the push
-    over the contacts found, of the impulse over the approaching ones; update the body's
-    rotation, and clear them."""
-    for p in range(n_points):
-        if hits[p, 0] > 0.0:
-            share = 1.0 / hits[p, 0]
+def ground_polygon(xs, ys, i, poly):
+    """The ground under segment i into ``poly`` (4, 4), as :func:`block_polygon`: from the
+    segment's left end down, along the bottom, up to its right end (counter-clockwise)."""
+    base = min(ys[i], ys[i + 1]) - GROUND_DEPTH
+    poly[0, 0] = xs[i]
+    poly[0, 1] = ys[i]
+    poly[1, 0] = xs[i]
+    poly[1, 1] = base
+    poly[2, 0] = xs[i + 1]
+    poly[2, 1] = base
+    poly[3, 0] = xs[i + 1]
+    poly[3, 1] = ys[i + 1]
+    for j in range(4):
+        k = (j + 1) % 4
+        ex = poly[k, 0] - poly[j, 0]
+        ey = poly[k, 1] - poly[j, 1]
+        length = math.sqrt(ex * ex + ey * ey)
+        poly[j, 2] = ey / length
+        poly[j, 3] = -ex / length
+
+
+@njit(inline="always")
+def deepest_axis(one, two):
+    """The separating-axis test of two convex quadrilaterals: (overlap, nx, ny) with the
+    normal of least penetration, from ``one`` towards ``two`` (ties to ``one``'s faces);
+    overlap <= 0 when they do not touch."""
+    best = 1e300
+    bx = by = 0.0
+    for side in range(2):
+        ref = one if side == 0 else two
+        other = two if side == 0 else one
+        for j in range(4):
+            ax = ref[j, 2]
+            ay = ref[j, 3]
+            top = ax * ref[j, 0] + ay * ref[j, 1]
+            low = 1e300
+            for q in range(4):
+                low = min(low, ax * other[q, 0] + ay * other[q, 1])
+            depth = top - low
+            if depth <= 0.0:
+                return 0.0, 0.0, 0.0
+            if depth < best:
+                best = depth
+                bx = ax if side == 0 else -ax
+                by = ay if side == 0 else -ay
+    return best, bx, by
+
+
+@njit(inline="always")
+def farthest_edge(poly, nx, ny):
+    """The edge of ``poly`` farthest along (nx, ny): (first vertex, second vertex, the
+    farthest vertex): of the two edges at the farthest vertex, the one whose normal is nearer
+    to (nx, ny)."""
+    far = 0
+    top = -1e300
+    for j in range(4):
+        d = nx * poly[j, 0] + ny * poly[j, 1]
+        if d > top:
+            top = d
+            far = j
+    before = (far + 3) % 4
+    if poly[before, 2] * nx + poly[before, 3] * ny < poly[far, 2] * nx + poly[far, 3] * ny:
+        return far, (far + 1) % 4, far
+    return before, far, far
+
+
+@njit(inline="always")
+def clip(clipped, n_in, nx, ny, offset):
+    """Keep the part of segment ``clipped`` (rows 0, 1: x, y, vertex) on the side
+    n . p <= offset; returns how many points remain (in rows 0, 1)."""
+    d0 = nx * clipped[0, 0] + ny * clipped[0, 1] - offset
+    d1 = nx * clipped[1, 0] + ny * clipped[1, 1] - offset
+    if n_in < 2:
+        return 0
+    if d0 <= 0.0 and d1 <= 0.0:
+        return 2
+    if d0 > 0.0 and d1 > 0.0:
+        return 0
+    u = d0 / (d0 - d1)
+    x = clipped[0, 0] + u * (clipped[1, 0] - clipped[0, 0])
+    y = clipped[0, 1] + u * (clipped[1, 1] - clipped[0, 1])
+    # The new point keeps the feature of the one it replaces.
+    if d0 > 0.0:
+        clipped[0, 0] = x
+        clipped[0, 1] = y
+    else:
+        clipped[1, 0] = x
+        clipped[1, 1] = y
+    return 2
+
+
+@njit(inline="always")
+def manifold(one, two, nx, ny, clipped):
+    """The contact points of two overlapping quadrilaterals (normal (nx, ny) from ``one``
+    towards ``two``), as dyn4j's clipping manifold: the edge of either most perpendicular to
+    the normal is the reference, the other's edge facing it is clipped to the reference's
+    sides, and the clipped points behind the reference face are the contacts. Returns
+    (points, flipped, reference edge, incident edge, the reference face's normal from ``one``
+    towards ``two``); ``clipped`` rows: x, y, vertex, depth."""
+    r1, r2, rm = farthest_edge(one, nx, ny)
+    i1, i2, im = farthest_edge(two, -nx, -ny)
+    e1x = one[r2, 0] - one[r1, 0]
+    e1y = one[r2, 1] - one[r1, 1]
+    e2x = two[i2, 0] - two[i1, 0]
+    e2y = two[i2, 1] - two[i1, 1]
+    flipped = abs(e1x * nx + e1y * ny) > abs(e2x * nx + e2y * ny)
+    ref = two if flipped else one
+    inc = one if flipped else two
+    if flipped:
+        r1, r2, rm, i1, i2 = i1, i2, im, r1, r2
+    ex = ref[r2, 0] - ref[r1, 0]
+    ey = ref[r2, 1] - ref[r1, 1]
+    length = math.sqrt(ex * ex + ey * ey)
+    ex /= length
+    ey /= length
+    clipped[0, 0] = inc[i1, 0]
+    clipped[0, 1] = inc[i1, 1]
+    clipped[0, 2] = i1
+    clipped[1, 0] = inc[i2, 0]
+    clipped[1, 1] = inc[i2, 1]
+    clipped[1, 2] = i2
+    kept = clip(clipped, 2, -ex, -ey, -(ex * ref[r1, 0] + ey * ref[r1, 1]))
+    kept = clip(clipped, kept, ex, ey, ex * ref[r2, 0] + ey * ref[r2, 1])
+    # Into the reference polygon: a point behind its face has depth >= 0.
+    fx = -ey
+    fy = ex
+    tx = fx if flipped else -fx
+    ty = fy if flipped else -fy
+    if kept < 2:
+        return 0, flipped, r1, i1, tx, ty
+    front = fx * ref[rm, 0] + fy * ref[rm, 1]
+    points = 0
+    for q in range(2):
+        depth = fx * clipped[q, 0] + fy * clipped[q, 1] - front
+        if depth >= 0.0:
             for j in range(3):
-                pos[p, j] += dpos[p, j] * share
-                dpos[p, j] = 0.0
-            if hits[p, 1] > 0.0:
-                share = 1.0 / hits[p, 1]
-                for j in range(3):
-                    vel[p, j] += dvel[p, j] * share
-                    dvel[p, j] = 0.0
-            hits[p, 0] = hits[p, 1] = 0.0
-            cos[p] = math.cos(pos[p, 2])
-            sin[p] = math.sin(pos[p, 2])
+                clipped[points, j] = clipped[q, j]
+            clipped[points, 3] = depth
+            points += 1
+    return points, flipped, r1, i1, tx, ty
 
 
 @njit(inline="always")
-def tip_contact(robot, ground, scratch, pos, vel, first, hi_x, params):
-    """Keep the outline vertices of the robot's blocks out of the ground.
-
-    ``scratch.segment`` remembers each vertex's segment from the previous substep; ``first``
-    is the segment under the robot's leftmost point and ``hi_x`` its right end [m]. A vertex
-    below its segment, further horizontally from the segment's ends than it is deep, goes
-    straight out along the segment's normal (the usual case); otherwise the two neighbours on
-    each side are searched for the nearest ground point, so that steep walls and step risers
-    push sideways, not up. Found now, applied by :func:`settle` (:func:`touch`).
-    """
-    xs = ground.xs
-    ys = ground.ys
-    nxs = ground.nx
-    nys = ground.ny
-    n = ground.n
-    contact = scratch.contact
-    segment = scratch.segment
+def add_contacts(robot, scratch, pos, a, b, partner, one, two, mu) -> int:
+    """The contacts of body a (polygon ``two``) with body b (polygon ``one``; b < 0: the
+    ground, ``partner`` its segment, else ``partner`` = b) into the contact table, warm-started
+    from last step's point of the same feature; returns how many."""
+    overlap, nx, ny = deepest_axis(one, two)
+    if overlap <= 0.0:
+        return 0
+    clipped = scratch.clipped
+    points, flipped, ref, inc, snx, sny = manifold(one, two, nx, ny, clipped)
+    if points == 0:
+        return 0
+    c = scratch.contacts
+    old = scratch.previous
+    n = scratch.counts[0]
     cos = scratch.cos
     sin = scratch.sin
-    clear = highest_ground(xs, ys, n, first, hi_x) + CONTACT_TOLERANCE
-    for f in range(robot.n_tips):
-        p = robot.tip_body[f]
-        x, y = world_point(p, robot.tip_offset[f, 0], robot.tip_offset[f, 1], pos, cos, sin)
-        if y >= clear:
-            continue
-        i = segment_near(xs, n, x, segment[f])
-        segment[f] = i
-        t = (x - xs[i]) / (xs[i + 1] - xs[i])
-        gap = y - (ys[i] + t * (ys[i + 1] - ys[i]))
-        if gap < CONTACT_TOLERANCE:
-            contact[p] = True
-        if gap >= 0.0:
-            continue
-        nx = nxs[i]
-        ny = nys[i]
-        if min(x - xs[i], xs[i + 1] - x) >= -gap:
-            depth = -((x - xs[i]) * nx + (y - ys[i]) * ny)
+    for q in range(points):
+        k = n + q
+        px = clipped[q, 0]
+        py = clipped[q, 1]
+        feature = ((((partner * 2 + (1 if flipped else 0)) * 4 + ref) * 4 + inc) * 4
+                   + int(clipped[q, 2]))
+        c[k, C_A] = a
+        c[k, C_B] = b
+        c[k, C_FEATURE] = feature
+        c[k, C_PX] = px
+        c[k, C_PY] = py
+        c[k, C_DEPTH] = clipped[q, 3]
+        c[k, C_NX] = snx
+        c[k, C_NY] = sny
+        dx = px - pos[a, 0]
+        dy = py - pos[a, 1]
+        c[k, C_LAX] = cos[a] * dx + sin[a] * dy
+        c[k, C_LAY] = -sin[a] * dx + cos[a] * dy
+        if b >= 0:
+            dx = px - pos[b, 0]
+            dy = py - pos[b, 1]
+            c[k, C_LBX] = cos[b] * dx + sin[b] * dy
+            c[k, C_LBY] = -sin[b] * dx + cos[b] * dy
         else:
-            best = 1e300
-            cx = cy = 0.0
-            for j in range(max(0, i - 2), min(n - 1, i + 3)):
-                sx = xs[j + 1] - xs[j]
-                sy = ys[j + 1] - ys[j]
-                u = ((x - xs[j]) * sx + (y - ys[j]) * sy) / (sx * sx + sy * sy)
-                u = min(1.0, max(0.0, u))
-                qx = xs[j] + u * sx
-                qy = ys[j] + u * sy
-                d2 = (x - qx) * (x - qx) + (y - qy) * (y - qy)
-                if d2 < best:
-                    best = d2
-                    cx = qx
-                    cy = qy
-            depth = math.sqrt(best)
-            if depth < 1e-9:
-                continue
-            nx = (cx - x) / depth
-            ny = (cy - y) / depth
-        if depth > 0.0:
-            touch(p, x, y, nx, ny, depth, params.friction, params.restitution, robot.inv_mass,
-                  robot.inv_inertia, pos, vel, scratch.dpos, scratch.dvel, scratch.hits)
+            c[k, C_LBX] = px
+            c[k, C_LBY] = py
+        c[k, C_COUNT] = points if q == 0 else 0.0
+        c[k, C_LIVE] = 1.0
+        c[k, C_MU] = mu
+        c[k, C_JN] = 0.0
+        c[k, C_JT] = 0.0
+        for i in range(scratch.counts[1]):
+            if (old[i, C_FEATURE] == feature and old[i, C_A] == a and old[i, C_B] == b
+                    and old[i, C_LIVE] != 0.0):
+                c[k, C_JN] = old[i, C_JN]
+                c[k, C_JT] = old[i, C_JT]
+                break
+    scratch.counts[0] = n + points
+    return points
 
 
 @njit(inline="always")
-def vertex_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params):
-    """Keep terrain vertices out of the robot's outline blocks; the block leaves through its
-    edge nearest to the vertex (:func:`touch`: found now, applied by :func:`settle`).
-
-    Together with :func:`tip_contact` (block corners against terrain segments) this makes the
-    blocks solid: a robot rests on a crest with a block's face, not only with a corner.
-    """
+def find_contacts(robot, ground, scratch, pos, params):
+    """The contacts for the next step (dyn4j finds them after each step): each block against
+    the ground under every terrain segment its bounding box reaches, and the blocks that share
+    no joint against each other. ``scratch.contact`` says which blocks touch the ground."""
+    c = scratch.contacts
+    old = scratch.previous
+    n_old = scratch.counts[0]
+    for k in range(n_old):
+        for j in range(N_CONTACT_COLUMNS):
+            old[k, j] = c[k, j]
+    scratch.counts[1] = n_old
+    scratch.counts[0] = 0
     xs = ground.xs
     ys = ground.ys
     n = ground.n
+    one = scratch.polygon[0]
+    two = scratch.polygon[1]
     cos = scratch.cos
     sin = scratch.sin
-    for i in range(first + 1, n - 1):
-        tx = xs[i]
-        if tx > hi_x:
-            break
-        ty = ys[i]
-        if ty <= lo_y:
-            continue  # below every outline vertex: it cannot be inside a block
-        for q in range(robot.n_blocks):
-            p = robot.block_body[q]
-            bx, by = world_point(p, robot.block_offset[q, 0], robot.block_offset[q, 1], pos,
-                                 cos, sin)
-            if abs(tx - bx) >= BLOCK_REACH or abs(ty - by) >= BLOCK_REACH:
-                continue
-            lx = cos[p] * (tx - bx) + sin[p] * (ty - by)
-            ly = -sin[p] * (tx - bx) + cos[p] * (ty - by)
-            if abs(lx) >= HALF_BLOCK or abs(ly) >= HALF_BLOCK:
-                continue
-            # The block moves away from the vertex, through the nearest edge.
-            depth = HALF_BLOCK - lx
-            ex = -1.0
-            ey = 0.0
-            if HALF_BLOCK + lx < depth:
-                depth = HALF_BLOCK + lx
-                ex = 1.0
-                ey = 0.0
-            if HALF_BLOCK - ly < depth:
-                depth = HALF_BLOCK - ly
-                ex = 0.0
-                ey = -1.0
-            if HALF_BLOCK + ly < depth:
-                depth = HALF_BLOCK + ly
-                ex = 0.0
-                ey = 1.0
-            scratch.contact[p] = True
-            touch(p, tx, ty, cos[p] * ex - sin[p] * ey, sin[p] * ex + cos[p] * ey, depth,
-                  params.friction, params.restitution, robot.inv_mass, robot.inv_inertia, pos,
-                  vel, scratch.dpos, scratch.dvel, scratch.hits)
-
-
-@njit(inline="always")
-def tip_extent(robot, pos, cos, sin):
-    """Leftmost x, rightmost x and lowest y of the robot's outline vertices."""
-    lo_x = hi_x = lo_y = 0.0
-    for f in range(robot.n_tips):
-        x, y = world_point(robot.tip_body[f], robot.tip_offset[f, 0], robot.tip_offset[f, 1],
-                           pos, cos, sin)
-        if f == 0:
-            lo_x = hi_x = x
-            lo_y = y
-        else:
-            lo_x = min(lo_x, x)
-            hi_x = max(hi_x, x)
-            lo_y = min(lo_y, y)
-    return lo_x, hi_x, lo_y
-
-
-@njit(inline="always")
-def voxel_corners(corners, v):
-    """Point indices of voxel ``v``'s corners: SW, SE, NE, NW (counter-clockwise)."""
-    return corners[v, 0], corners[v, 1], corners[v, 2], corners[v, 3]
-
-
-@njit(inline="always")
-def keep_orientation(robot, scratch, pos, vel):
-    """No voxel turns inside out: the signed area of each voxel's outline (its corner bodies'
-    lattice points) stays at least ``min_area``.
-
-    Rope limits cannot do it (a mirrored voxel has the same distances). The check is inlined;
-    the rare correction (:func:`restore_area`) is not, which keeps the substep's code small.
-    """
-    corners = robot.corners
-    offset = robot.corner_offset
-    cos = scratch.cos
-    sin = scratch.sin
-    for v in range(robot.n_voxels):
-        sw, se, ne, nw = voxel_corners(corners, v)
-        swx, swy = world_point(sw, offset[sw, 0], offset[sw, 1], pos, cos, sin)
-        sex, sey = world_point(se, offset[se, 0], offset[se, 1], pos, cos, sin)
-        nex, ney = world_point(ne, offset[ne, 0], offset[ne, 1], pos, cos, sin)
-        nwx, nwy = world_point(nw, offset[nw, 0], offset[nw, 1], pos, cos, sin)
-        # Twice the signed area: the cross product of the diagonals.
-        d1x = nex - swx
-        d1y = ney - swy
-        d2x = nwx - sex
-        d2y = nwy - sey
-        if 0.5 * (d1x * d2y - d1y * d2x) < robot.min_area:
-            restore_area(sw, se, ne, nw, d1x, d1y, d2x, d2y, robot.min_area, robot.inv_mass,
-                         pos, vel, nex - pos[ne, 0], ney - pos[ne, 1], nwx - pos[nw, 0],
-                         nwy - pos[nw, 1], swx - pos[sw, 0], swy - pos[sw, 1],
-                         sex - pos[se, 0], sey - pos[se, 1])
-
-
-@njit(inline="always")
-def _point_velocity(p, rx, ry, vel):
-    return vel[p, 0] - vel[p, 2] * ry, vel[p, 1] + vel[p, 2] * rx
-
-
-@njit(_nrt=False)
-def restore_area(sw, se, ne, nw, d1x, d1y, d2x, d2y, min_area, inv_mass, pos, vel, r_ne_x,
-                 r_ne_y, r_nw_x, r_nw_y, r_sw_x, r_sw_y, r_se_x, r_se_y):
-    """Move the corner bodies of a voxel smaller than ``min_area`` (diagonals d1 = NE - SW,
-    d2 = NW - SE; r_*: each corner's offset from its body's centre, world frame) along its
-    area's gradient, weighted by inverse mass, to restore ``min_area``, and remove the
-    shrinking rate of its corners (from the bodies' motion and spin) along it. Translations
-    only: moving a body moves its lattice point by as much."""
-    area = 0.5 * (d1x * d2y - d1y * d2x)
-    # dA/dp for each corner: half the perpendicular of the other diagonal.
-    g_sw_x, g_sw_y = -0.5 * d2y, 0.5 * d2x
-    g_ne_x, g_ne_y = 0.5 * d2y, -0.5 * d2x
-    g_se_x, g_se_y = 0.5 * d1y, -0.5 * d1x
-    g_nw_x, g_nw_y = -0.5 * d1y, 0.5 * d1x
-    w_sw = inv_mass[sw]
-    w_se = inv_mass[se]
-    w_ne = inv_mass[ne]
-    w_nw = inv_mass[nw]
-    norm = (w_sw * (g_sw_x * g_sw_x + g_sw_y * g_sw_y)
-            + w_ne * (g_ne_x * g_ne_x + g_ne_y * g_ne_y)
-            + w_se * (g_se_x * g_se_x + g_se_y * g_se_y)
-            + w_nw * (g_nw_x * g_nw_x + g_nw_y * g_nw_y))
-    if norm < 1e-12:
-        return
-    step = (min_area - area) / norm
-    v_sw_x, v_sw_y = _point_velocity(sw, r_sw_x, r_sw_y, vel)
-    v_se_x, v_se_y = _point_velocity(se, r_se_x, r_se_y, vel)
-    v_ne_x, v_ne_y = _point_velocity(ne, r_ne_x, r_ne_y, vel)
-    v_nw_x, v_nw_y = _point_velocity(nw, r_nw_x, r_nw_y, vel)
-    rate = (g_sw_x * v_sw_x + g_sw_y * v_sw_y + g_ne_x * v_ne_x + g_ne_y * v_ne_y
-            + g_se_x * v_se_x + g_se_y * v_se_y + g_nw_x * v_nw_x + g_nw_y * v_nw_y)
-    stop = max(0.0, -rate) / norm
-    for p, gx, gy, w in ((sw, g_sw_x, g_sw_y, w_sw), (se, g_se_x, g_se_y, w_se),
-                         (ne, g_ne_x, g_ne_y, w_ne), (nw, g_nw_x, g_nw_y, w_nw)):
-        pos[p, 0] += step * w * gx
-        pos[p, 1] += step * w * gy
-        vel[p, 0] += stop * w * gx
-        vel[p, 1] += stop * w * gy
-
-
-@njit(inline="always")
-def substep(robot, ground, scratch, pos, vel, params):
-    """Advance one robot by one physics substep: springs, gravity and drag; the rope limits
-    and each voxel's orientation; contact of the blocks with the terrain. ``scratch.cos`` and
-    ``scratch.sin`` must hold the bodies' rotations (:func:`turn`); every step that turns a
-    body updates them."""
-    integrate(robot, scratch, pos, vel, params)
-    keep_ropes(robot, scratch, pos, vel)
-    keep_orientation(robot, scratch, pos, vel)
-    lo_x, hi_x, lo_y = tip_extent(robot, pos, scratch.cos, scratch.sin)
     segment = scratch.segment
-    first = segment_near(ground.xs, ground.n, lo_x, segment[robot.n_tips])
-    segment[robot.n_tips] = first
+    left = n
     for p in range(robot.n_points):
         scratch.contact[p] = False
-    tip_contact(robot, ground, scratch, pos, vel, first, hi_x, params)
-    vertex_contact(robot, ground, scratch, pos, vel, first, hi_x, lo_y, params)
-    settle(robot.n_points, scratch.dpos, scratch.dvel, scratch.hits, pos, vel, scratch.cos,
-           scratch.sin)
+        block_polygon(p, pos, cos, sin, two)
+        lo_x = hi_x = two[0, 0]
+        lo_y = two[0, 1]
+        for j in range(1, 4):
+            lo_x = min(lo_x, two[j, 0])
+            hi_x = max(hi_x, two[j, 0])
+            lo_y = min(lo_y, two[j, 1])
+        i = segment_near(xs, n, lo_x, segment[p])
+        segment[p] = i
+        left = min(left, i)
+        while i < n - 1 and xs[i] < hi_x:
+            if lo_y < max(ys[i], ys[i + 1]):
+                ground_polygon(xs, ys, i, one)
+                if add_contacts(robot, scratch, pos, p, -1, i, one, two, params.friction) > 0:
+                    scratch.contact[p] = True
+            i += 1
+    segment[robot.n_points] = left
+    for q in range(robot.n_pairs):
+        a = robot.pair_ends[q, 0]
+        b = robot.pair_ends[q, 1]
+        dx = pos[b, 0] - pos[a, 0]
+        dy = pos[b, 1] - pos[a, 1]
+        if dx * dx + dy * dy >= 4.0 * BLOCK_REACH * BLOCK_REACH:
+            continue
+        block_polygon(a, pos, cos, sin, one)
+        block_polygon(b, pos, cos, sin, two)
+        add_contacts(robot, scratch, pos, b, a, a, one, two, params.block_friction)
+
+
+@njit(inline="always")
+def velocities(robot, vel, params):
+    """Gravity, then damping (dyn4j's: the velocity times 1 - dt * drag)."""
+    dt = params.dt
+    keep = min(max(1.0 - dt * params.drag, 0.0), 1.0)
+    for p in range(robot.n_points):
+        vel[p, 1] -= params.gravity * dt
+        vel[p, 0] *= keep
+        vel[p, 1] *= keep
+        vel[p, 2] *= keep
+
+
+@njit(inline="always")
+def positions(robot, scratch, pos, vel, params):
+    """Move the bodies with their velocities, at most MAX_TRANSLATION and MAX_ROTATION a
+    step (faster velocities are cut to that)."""
+    dt = params.dt
+    for p in range(robot.n_points):
+        tx = vel[p, 0] * dt
+        ty = vel[p, 1] * dt
+        square = tx * tx + ty * ty
+        if square > MAX_TRANSLATION * MAX_TRANSLATION:
+            ratio = MAX_TRANSLATION / math.sqrt(square)
+            vel[p, 0] *= ratio
+            vel[p, 1] *= ratio
+        rotation = vel[p, 2] * dt
+        if rotation * rotation > MAX_ROTATION * MAX_ROTATION:
+            vel[p, 2] *= MAX_ROTATION / abs(rotation)
+        pos[p, 0] += vel[p, 0] * dt
+        pos[p, 1] += vel[p, 1] * dt
+        pos[p, 2] += vel[p, 2] * dt
+        scratch.cos[p] = math.cos(pos[p, 2])
+        scratch.sin[p] = math.sin(pos[p, 2])
+
+
+@njit(inline="always")
+def step(robot, ground, scratch, pos, vel, params):
+    """One physics step of dt = ``params.dt`` (dyn4j's order; module docstring)."""
+    velocities(robot, vel, params)
+    start_contacts(robot, scratch, pos, vel, params)
+    start_springs(robot, scratch, pos, vel, params)
+    start_ropes(robot, scratch, pos, vel)
+    start_welds(robot, scratch, vel)
+    for _ in range(params.velocity_iterations):
+        solve_springs(robot, scratch, vel)
+        solve_ropes(robot, scratch, vel)
+        solve_welds(robot, scratch, vel)
+        solve_contacts(robot, scratch, vel)
+    positions(robot, scratch, pos, vel, params)
+    for _ in range(params.position_iterations):
+        contacts_held = fix_contacts(robot, scratch, pos)
+        ropes_held = fix_ropes(robot, pos)
+        welds_held = fix_welds(robot, pos, scratch.cos, scratch.sin)
+        if contacts_held and ropes_held and welds_held:
+            break
+    find_contacts(robot, ground, scratch, pos, params)
 
 
 @njit(_nrt=False)
 def advance(robot, ground, scratch, pos, vel, params, substeps):
-    """One control step of physics: ``substeps`` substeps under the rest lengths of
+    """One control step of physics: ``substeps`` steps under the rest lengths of
     ``scratch.rest``, from any state (the bodies' rotations are taken afresh).
 
     Compiled without Numba's reference counting (``_nrt=False``: nothing here allocates), as
     every field read from the per-robot tuples would otherwise cost an atomic increment and
-    decrement on each substep.
+    decrement on each step.
     """
     turn(robot.n_points, pos, scratch.cos, scratch.sin)
     for _ in range(substeps):
-        substep(robot, ground, scratch, pos, vel, params)
+        step(robot, ground, scratch, pos, vel, params)
+
+
+@njit(inline="always")
+def voxel_corners(corners, v):
+    """Body indices of voxel ``v``'s corners: SW, SE, NE, NW (counter-clockwise)."""
+    return corners[v, 0], corners[v, 1], corners[v, 2], corners[v, 3]
 
 
 @njit(_nrt=False)
 def corner_state(robot, pos, vel, cos, sin, corner_pos, corner_vel):
-    """The lattice points (the voxels' corners, one per body) and their velocities: what the
-    sensors, the recording and the diagnostics see. ``cos``, ``sin``: the bodies' rotations,
-    as the substeps leave them in :class:`Scratch` (every step that turns a body updates
-    them)."""
+    """Each block's outer corner (the voxel's corner it carries) and the block's velocity:
+    what the sensors, the recording and the diagnostics see (the original's voxel velocity is
+    the mean of its blocks' velocities). ``cos``, ``sin``: the bodies' rotations, as the
+    steps leave them in :class:`Scratch`."""
     offset = robot.corner_offset
     for p in range(robot.n_points):
         rx, ry = turned(p, offset[p, 0], offset[p, 1], cos, sin)
         corner_pos[p, 0] = pos[p, 0] + rx
         corner_pos[p, 1] = pos[p, 1] + ry
-        corner_vel[p, 0] = vel[p, 0] - vel[p, 2] * ry
-        corner_vel[p, 1] = vel[p, 1] + vel[p, 2] * rx
+        corner_vel[p, 0] = vel[p, 0]
+        corner_vel[p, 1] = vel[p, 1]
 
 
 @njit(_nrt=False)
 def lowest_gap(robot, ground, pos, cos, sin, guess) -> float:
-    """How high [m] the robot's lowest outline vertex is above the ground under it
-    (``cos``, ``sin`` as for :func:`corner_state`; ``guess``: a segment index near the
-    robot)."""
+    """How high [m] the robot's lowest block corner is above the ground under it (``cos``,
+    ``sin`` as for :func:`corner_state`; ``guess``: a segment index near the robot)."""
     gap = math.inf
-    for f in range(robot.n_tips):
-        x, y = world_point(robot.tip_body[f], robot.tip_offset[f, 0], robot.tip_offset[f, 1],
-                           pos, cos, sin)
-        gap = min(gap, y - ground_height(ground.xs, ground.ys, ground.n, x, guess))
+    for p in range(robot.n_points):
+        for j in range(4):
+            lx = HALF_BLOCK if j == 1 or j == 2 else -HALF_BLOCK
+            ly = HALF_BLOCK if j >= 2 else -HALF_BLOCK
+            x, y = world_point(p, lx, ly, pos, cos, sin)
+            gap = min(gap, y - ground_height(ground.xs, ground.ys, ground.n, x, guess))
     return gap

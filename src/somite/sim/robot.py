@@ -12,36 +12,32 @@ from typing import NamedTuple
 import numpy as np
 
 from .._jit import njit
-from .config import VOXEL_SIDE
+from .physics import N_CONTACT_COLUMNS, N_ROPE_COLUMNS, N_SPRING_COLUMNS, N_WELD_COLUMNS
 
 
 class Robot(NamedTuple):
-    """Static arrays of one robot (P corner bodies, S springs, Y ropes, V voxels, F outline
-    vertices, Q outline blocks); offsets [m] from a body's centre of mass, in its frame."""
+    """Static arrays of one robot (P blocks, S springs, Y ropes, W welds, C colliding pairs,
+    V voxels); offsets [m] from a block's centre, in its frame."""
 
     n_points: int
     n_springs: int
     n_ropes: int
+    n_welds: int
+    n_pairs: int
     n_voxels: int
-    n_tips: int
-    n_blocks: int
     ends: np.ndarray  # (S, 2) int32 body indices
     anchor: np.ndarray  # (S, 4) anchor offsets on body a, then on body b
     kind: np.ndarray  # (S,) int32 SPRING_* group, which sets the range of the rest length
     owner: np.ndarray  # (S,) int32 voxel whose actuation sets the rest length
-    spring_mass: np.ndarray  # (S,) [kg] effective mass: stiffness and damping scale with it
     rope_ends: np.ndarray  # (Y, 2) int32
-    rope_anchor: np.ndarray  # (Y, 4)
+    weld_ends: np.ndarray  # (W, 2) int32
+    weld_anchor: np.ndarray  # (W, 2) the first body's centre, offset on the second
+    pair_ends: np.ndarray  # (C, 2) int32
     mass: np.ndarray  # (P,) [kg]
     inv_mass: np.ndarray  # (P,) [1/kg]
     inv_inertia: np.ndarray  # (P,) [1/(kg m^2)]
-    corner_offset: np.ndarray  # (P, 2) the lattice point each body carries
+    corner_offset: np.ndarray  # (P, 2) the voxel corner each block carries
     corners: np.ndarray  # (V, 4) int32 SW, SE, NE, NW
-    tip_body: np.ndarray  # (F,) int32
-    tip_offset: np.ndarray  # (F, 2)
-    block_body: np.ndarray  # (Q,) int32
-    block_offset: np.ndarray  # (Q, 2)
-    min_area: float  # [m^2] smallest signed area of a voxel
 
 
 class Ground(NamedTuple):
@@ -55,36 +51,35 @@ class Ground(NamedTuple):
 
 
 class Scratch(NamedTuple):
-    """Working arrays of one robot's episode."""
+    """Working arrays of one robot's episode (physics: the work rows' columns)."""
 
     rest: np.ndarray  # (S,) [m] rest lengths under the current actuation
-    force: np.ndarray  # (P, 3) [N, N, N m] force and torque on each body, zero between
-    # substeps
-    cos: np.ndarray  # (P,) of each body's angle, for the current substep
+    cos: np.ndarray  # (P,) of each body's angle
     sin: np.ndarray  # (P,)
-    rax: np.ndarray  # (S,) springs: anchors in the world frame, extensions, relative
-    ray: np.ndarray  # velocities, forces and torques (physics.integrate)
-    rbx: np.ndarray
-    rby: np.ndarray
-    dx: np.ndarray
-    dy: np.ndarray
-    dvx: np.ndarray
-    dvy: np.ndarray
-    fx: np.ndarray
-    fy: np.ndarray
-    ta: np.ndarray
-    tb: np.ndarray
-    dpos: np.ndarray  # (P, 3) contact corrections found in a substep, zero between substeps
-    dvel: np.ndarray  # (P, 3)
-    hits: np.ndarray  # (P, 2) contacts found per body, approaching ones; zero between substeps
-    contact: np.ndarray  # (P,) bool: the body touches the ground
-    segment: np.ndarray  # (F + 1,) int64 terrain segment under each outline vertex, then
-    # under the robot's left end
+    spring: np.ndarray  # (S, N_SPRING_COLUMNS) this step's set-up and accumulated impulse
+    rope: np.ndarray  # (Y, N_ROPE_COLUMNS)
+    weld: np.ndarray  # (W, N_WELD_COLUMNS)
+    contacts: np.ndarray  # (contact_capacity, N_CONTACT_COLUMNS) this step's contact points
+    previous: np.ndarray  # (contact_capacity, N_CONTACT_COLUMNS) last step's, to warm-start
+    counts: np.ndarray  # (2,) int64 rows of contacts, of previous
+    polygon: np.ndarray  # (2, 4, 4) two quadrilaterals under test
+    clipped: np.ndarray  # (2, 4) their clipped contact points
+    contact: np.ndarray  # (P,) bool: the block touches the ground
+    segment: np.ndarray  # (P + 1,) int64 terrain segment under each block, then under the
+    # robot's left end
+
+
+@njit
+def contact_capacity(n_points: int, n_pairs: int) -> int:
+    """Most contact points a robot can have at once: two per block and terrain segment under
+    it (a block spans at most two segments, hilly segments being >= 1 m long), two per
+    colliding pair."""
+    return 4 * n_points + 2 * n_pairs
 
 
 @njit
 def robot_view(system, b, params) -> Robot:
-    """Robot ``b`` of ``system`` with the limits of ``params``."""
+    """Robot ``b`` of ``system``."""
     n_points = system.n_points[b]
     return robot_in(system, b, params, np.empty(n_points), np.empty(n_points))
 
@@ -96,22 +91,19 @@ def robot_in(system, b, params, inv_mass, inv_inertia) -> Robot:
     n_points = system.n_points[b]
     n_springs = system.n_springs[b]
     n_ropes = system.n_ropes[b]
-    n_tips = system.n_tips[b]
-    n_blocks = system.n_blocks[b]
+    n_welds = system.n_welds[b]
+    n_pairs = system.n_pairs[b]
     mass = system.mass[b, :n_points]
     for p in range(n_points):
         inv_mass[p] = 1.0 / mass[p]
         inv_inertia[p] = 1.0 / system.inertia[b, p]
     return Robot(
-        n_points, n_springs, n_ropes, system.n_voxels[b], n_tips, n_blocks,
+        n_points, n_springs, n_ropes, n_welds, n_pairs, system.n_voxels[b],
         system.spring_ends[b, :n_springs], system.spring_anchor[b, :n_springs],
         system.spring_kind[b, :n_springs], system.spring_owner[b, :n_springs],
-        system.spring_mass[b, :n_springs], system.rope_ends[b, :n_ropes],
-        system.rope_anchor[b, :n_ropes], mass, inv_mass, inv_inertia,
-        system.corner_offset[b, :n_points], system.voxel_corners[b],
-        system.tip_body[b, :n_tips], system.tip_offset[b, :n_tips],
-        system.block_body[b, :n_blocks], system.block_offset[b, :n_blocks],
-        params.min_area * VOXEL_SIDE * VOXEL_SIDE,
+        system.rope_ends[b, :n_ropes], system.weld_ends[b, :n_welds],
+        system.weld_anchor[b, :n_welds], system.pair_ends[b, :n_pairs], mass, inv_mass,
+        inv_inertia, system.corner_offset[b, :n_points], system.voxel_corners[b],
     )
 
 
@@ -124,34 +116,39 @@ def ground_view(system, b) -> Ground:
 
 @njit
 def new_scratch(robot) -> Scratch:
-    s = robot.n_springs
+    capacity = contact_capacity(robot.n_points, robot.n_pairs)
     return scratch_in(
-        robot, np.empty(s), np.empty((robot.n_points, 3)),
-        np.empty(robot.n_points), np.empty(robot.n_points), np.empty(s), np.empty(s),
-        np.empty(s), np.empty(s), np.empty(s), np.empty(s), np.empty(s), np.empty(s),
-        np.empty(s), np.empty(s), np.empty(s), np.empty(s), np.empty((robot.n_points, 3)),
-        np.empty((robot.n_points, 3)), np.empty((robot.n_points, 2)),
-        np.empty(robot.n_points, dtype=np.bool_), np.empty(robot.n_tips + 1, dtype=np.int64),
+        robot, np.empty(robot.n_springs), np.empty(robot.n_points), np.empty(robot.n_points),
+        np.empty((robot.n_springs, N_SPRING_COLUMNS)), np.empty((robot.n_ropes, N_ROPE_COLUMNS)),
+        np.empty((robot.n_welds, N_WELD_COLUMNS)), np.empty((capacity, N_CONTACT_COLUMNS)),
+        np.empty((capacity, N_CONTACT_COLUMNS)), np.empty(2, dtype=np.int64),
+        np.empty((2, 4, 4)), np.empty((2, 4)), np.empty(robot.n_points, dtype=np.bool_),
+        np.empty(robot.n_points + 1, dtype=np.int64),
     )
 
 
 @njit
-def scratch_in(robot, rest, force, cos, sin, rax, ray, rbx, rby, dx, dy, dvx, dvy, fx, fy, ta,
-               tb, dpos, dvel, hits, contact, segment) -> Scratch:
+def scratch_in(robot, rest, cos, sin, spring, rope, weld, contacts, previous, counts, polygon,
+               clipped, contact, segment) -> Scratch:
     """A :class:`Scratch` over supplied arrays (sizes as its fields'), set to the start of an
-    episode: forces zero, bodies unrotated, no contact. The rest lengths are set by the
-    episode before its first substep."""
+    episode: no impulses, bodies unrotated, no contact. The rest lengths are set by the
+    episode before its first step."""
     for s in range(robot.n_springs):
-        rest[s] = rax[s] = ray[s] = rbx[s] = rby[s] = dx[s] = dy[s] = 0.0
-        dvx[s] = dvy[s] = fx[s] = fy[s] = ta[s] = tb[s] = 0.0
+        rest[s] = 0.0
+        for j in range(spring.shape[1]):
+            spring[s, j] = 0.0
+    for r in range(robot.n_ropes):
+        for j in range(rope.shape[1]):
+            rope[r, j] = 0.0
+    for q in range(robot.n_welds):
+        for j in range(weld.shape[1]):
+            weld[q, j] = 0.0
+    counts[0] = counts[1] = 0
     for p in range(robot.n_points):
-        for j in range(3):
-            force[p, j] = dpos[p, j] = dvel[p, j] = 0.0
-        hits[p, 0] = hits[p, 1] = 0.0
         cos[p] = 1.0
         sin[p] = 0.0
         contact[p] = False
-    for f in range(robot.n_tips + 1):
+    for f in range(robot.n_points + 1):
         segment[f] = 0
-    return Scratch(rest, force, cos, sin, rax, ray, rbx, rby, dx, dy, dvx, dvy, fx, fy, ta, tb,
-                   dpos, dvel, hits, contact, segment)
+    return Scratch(rest, cos, sin, spring, rope, weld, contacts, previous, counts, polygon,
+                   clipped, contact, segment)

@@ -1,20 +1,20 @@
 """Static arrays of a batch of robots, padded to the largest robot of the batch.
 
-Axis glossary: B robots, P corner bodies (one per voxel corner of the lattice), S springs,
-Y rope limits, V voxels, F outline vertices of the blocks, Q outline blocks, R sensor
-readings, T terrains, K terrain vertices. Padding entries are never read: every kernel loop
-runs to the robot's own count (``n_points[b]`` and so on), which is why a robot's outcome does
-not depend on the other robots of its batch.
+Axis glossary: B robots, P bodies (four per voxel: the blocks at its corners), S springs,
+Y rope limits, W welds, V voxels, R sensor readings, T terrains, K terrain vertices. Padding
+entries are never read: every kernel loop runs to the robot's own count (``n_points[b]`` and
+so on), which is why a robot's outcome does not depend on the other robots of its batch.
 
-Geometry (decisions.md, "The simulator is ours"), as in the original (original-system.md
-section 1.2): each voxel corner holds a rigid square block inside its voxel; the blocks of the
-voxels that meet at a lattice point are welded into one rigid corner body. A voxel joins its
-four blocks with 18 springs anchored on the blocks' corners and centres, and 4 rope limits
-keep its adjacent blocks from overlapping.
+Geometry, as in the original (original-system.md sections 1.2 and 1.4): each voxel corner holds
+a rigid square block of its own, inside the voxel. A voxel joins its four blocks with 18 soft
+springs anchored on the blocks' corners and centres, and 4 rope limits keep its adjacent blocks
+from overlapping; neighbouring voxels are joined by two rigid welds per shared side, each
+anchored at its first block's centre.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -39,33 +39,30 @@ PLACEMENT_GAP = 1.0
 class System(NamedTuple):
     """The static description of a batch (shapes after each field, units in brackets).
 
-    Bodies are the robot's corner bodies, one per lattice point, so a body index is also the
-    index of the voxel corner that it carries. Offsets are from a body's centre of mass in its
-    own frame (at rest the frame is the world's)."""
+    Bodies are the voxels' corner blocks, four per voxel, so a body index is also the index of
+    the voxel corner that it carries. Offsets are from a body's centre of mass in its own frame
+    (at rest the frame is the world's)."""
 
-    n_points: np.ndarray  # (B,) int32 bodies (= lattice points)
+    n_points: np.ndarray  # (B,) int32 bodies (4 a voxel)
     mass: np.ndarray  # (B, P) [kg]
     inertia: np.ndarray  # (B, P) [kg m^2] about the body's centre of mass
     initial_pos: np.ndarray  # (B, P, 2) [m] centres of mass, placed on the robot's terrain
-    corner_offset: np.ndarray  # (B, P, 2) [m] the lattice point (the voxels' corner)
+    corner_offset: np.ndarray  # (B, P, 2) [m] the voxel corner that the block carries
     n_springs: np.ndarray  # (B,) int32
     spring_ends: np.ndarray  # (B, S, 2) int32 body indices
     spring_anchor: np.ndarray  # (B, S, 4) [m] offsets of the two anchors (x_a, y_a, x_b, y_b)
     spring_kind: np.ndarray  # (B, S) int32 SPRING_SIDE / SPRING_CROSS / SPRING_CENTRAL
     spring_owner: np.ndarray  # (B, S) int32 voxel whose actuation sets the rest length
-    spring_mass: np.ndarray  # (B, S) [kg] effective mass along the spring, at rest
     n_ropes: np.ndarray  # (B,) int32
-    rope_ends: np.ndarray  # (B, Y, 2) int32 body indices
-    rope_anchor: np.ndarray  # (B, Y, 4) [m] offsets of the two block centres
+    rope_ends: np.ndarray  # (B, Y, 2) int32 body indices (anchored at the block centres)
+    n_welds: np.ndarray  # (B,) int32
+    weld_ends: np.ndarray  # (B, W, 2) int32 body indices
+    weld_anchor: np.ndarray  # (B, W, 2) [m] the first body's centre, offset on the second
+    n_pairs: np.ndarray  # (B,) int32
+    pair_ends: np.ndarray  # (B, C, 2) int32 blocks that share no joint: they may collide
     n_voxels: np.ndarray  # (B,) int32
-    voxel_corners: np.ndarray  # (B, V, 4) int32 points SW, SE, NE, NW (counter-clockwise)
+    voxel_corners: np.ndarray  # (B, V, 4) int32 bodies SW, SE, NE, NW (counter-clockwise)
     voxel_x: np.ndarray  # (B, V) grid column of each voxel
-    n_tips: np.ndarray  # (B,) int32
-    tip_body: np.ndarray  # (B, F) int32 body of each outline vertex of a block
-    tip_offset: np.ndarray  # (B, F, 2) [m]
-    n_blocks: np.ndarray  # (B,) int32
-    block_body: np.ndarray  # (B, Q) int32 body of each block on the outline
-    block_offset: np.ndarray  # (B, Q, 2) [m] the block's centre
     n_readings: np.ndarray  # (B,) int32
     reading_code: np.ndarray  # (B, R) int32 R_* codes
     reading_voxel: np.ndarray  # (B, R) int32
@@ -78,119 +75,63 @@ class System(NamedTuple):
 
 
 class Geometry(NamedTuple):
-    """One body's corner bodies, springs, ropes and contact outline at rest, before placement.
-    Offsets in metres from each corner body's centre of mass."""
+    """One body's blocks, springs, ropes and welds at rest, before placement. Offsets in
+    metres from each block's centre of mass."""
 
-    points: np.ndarray  # (P, 2) lattice coordinates in voxel units
-    mass: np.ndarray  # (P,)
-    inertia: np.ndarray  # (P,)
-    centre: np.ndarray  # (P, 2) [m] centre of mass relative to the lattice point
+    points: np.ndarray  # (P, 2) lattice coordinates of each block's voxel corner
+    centre: np.ndarray  # (P, 2) [m] the block's centre relative to that corner
     springs: np.ndarray  # (S, 2)
     anchors: np.ndarray  # (S, 4)
     kinds: np.ndarray  # (S,)
     owners: np.ndarray  # (S,)
-    spring_mass: np.ndarray  # (S,)
     ropes: np.ndarray  # (Y, 2)
-    rope_anchors: np.ndarray  # (Y, 4)
+    welds: np.ndarray  # (W, 2)
+    weld_anchors: np.ndarray  # (W, 2)
+    pairs: np.ndarray  # (C, 2)
     corners: np.ndarray  # (V, 4)
-    tip_body: np.ndarray  # (F,)
-    tip_offset: np.ndarray  # (F, 2)
-    block_body: np.ndarray  # (Q,)
-    block_offset: np.ndarray  # (Q, 2)
 
 
-# Where each corner's block lies inside its voxel, and the voxel's sides as pairs of corners
-# (index into SW, SE, NE, NW).
+# Where each corner's block lies inside its voxel (corners SW, SE, NE, NW), and the voxel's
+# sides as pairs of corners.
 _INTO_VOXEL = ((1, 1), (-1, 1), (-1, -1), (1, -1))
 _SIDES = ((0, 1), (1, 2), (2, 3), (3, 0))
-
-
-def _cross(ax: float, ay: float, bx: float, by: float) -> float:
-    return ax * by - ay * bx
-
-
-def _hull(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    """Convex hull, counter-clockwise (monotone chain); collinear points dropped."""
-    pts = sorted(set(points))
-    if len(pts) < 3:
-        return pts
-    lower: list = []
-    upper: list = []
-    for chain, seq in ((lower, pts), (upper, reversed(pts))):
-        for p in seq:
-            while len(chain) >= 2 and _cross(chain[-1][0] - chain[-2][0],
-                                             chain[-1][1] - chain[-2][1],
-                                             p[0] - chain[-2][0], p[1] - chain[-2][1]) <= 1e-12:
-                chain.pop()
-            chain.append(p)
-    return lower[:-1] + upper[:-1]
-
-
-def _on_outline(p, outline) -> bool:
-    """Whether point p (metres, at rest) lies on one of the outline's sides."""
-    for (ax, ay), (bx, by) in outline:
-        if (abs(_cross(bx - ax, by - ay, p[0] - ax, p[1] - ay)) < 1e-9
-                and min(ax, bx) - 1e-9 <= p[0] <= max(ax, bx) + 1e-9
-                and min(ay, by) - 1e-9 <= p[1] <= max(ay, by) + 1e-9):
-            return True
-    return False
-
-
-def _effective_mass(ra, rb, n) -> float:
-    """Mass along unit vector n of a spring between anchors ra, rb of two single blocks (offsets
-    from each block's centre), as the original computes a joint's stiffness."""
-    w = 2.0 / CORNER_MASS + (_cross(*ra, *n) ** 2 + _cross(*rb, *n) ** 2) / BLOCK_INERTIA
-    return 1.0 / w
+SW, SE, NE, NW = range(4)
+_WELDS = (((-1, 0), ((NW, NE), (SW, SE))), ((0, -1), ((SW, NW), (SE, NE))))
+"""The original's welds: with the left neighbour (this NW to its NE, this SW to its SE) and
+with the one below (this SW to its NW, this SE to its NE); the first block is this voxel's."""
 
 
 def geometry(body: Body) -> Geometry:
-    """Corner bodies, springs, ropes and contact outline of a body, in the body's voxel order.
+    """Blocks, springs, ropes, welds and collision pairs of a body, in the body's voxel order
+    (voxel v owns blocks 4v .. 4v + 3, at its corners SW, SE, NE, NW).
 
-    Each voxel corner holds a square block of side BLOCK_SIDE inside the voxel; the blocks that
-    meet at a lattice point are one rigid body (welded in the original). Each voxel joins its
-    four blocks with 18 springs (per side: the inner and the outer facing corners, and the two
-    crossings of them; and the two diagonals between block centres) and keeps adjacent blocks
-    apart with 4 rope limits between their centres (original-system.md section 1.2).
+    Each voxel joins its four blocks with 18 springs (per side: the inner and the outer facing
+    corners, and the two crossings of them; and the two diagonals between block centres) and
+    keeps adjacent blocks apart with 4 rope limits between their centres (original-system.md
+    section 1.2); neighbouring voxels are welded (section 1.4). Blocks that share no joint
+    collide with each other, as in the original, where joined bodies never do.
     """
     voxels = body.shape.voxels
+    index = {c: v for v, c in enumerate(voxels)}
     half = BLOCK_SIDE / 2
-    lattice: dict[tuple[int, int], list] = {}
-    for x, y in voxels:
-        for corner in ((x, y), (x + 1, y), (x + 1, y + 1), (x, y + 1)):
-            lattice.setdefault(corner, [])
-    ordered = sorted(lattice, key=lambda c: (c[1], c[0]))
-    index = {c: i for i, c in enumerate(ordered)}
-    corners = np.zeros((len(voxels), 4), dtype=np.int32)
-    block_of = []  # per voxel, per corner: the block's centre [m, lattice frame]
-    sides: dict[frozenset, int] = {}
+    n = 4 * len(voxels)
+    points = np.zeros((n, 2))
+    centre = np.zeros((n, 2))
+    corners = np.arange(n, dtype=np.int32).reshape(-1, 4)
     for v, (x, y) in enumerate(voxels):
-        quad = [(x, y), (x + 1, y), (x + 1, y + 1), (x, y + 1)]
-        corners[v] = [index[c] for c in quad]
-        centres = []
-        for c, (ix, iy) in zip(quad, _INTO_VOXEL):
-            centre = (VOXEL_SIDE * c[0] + ix * half, VOXEL_SIDE * c[1] + iy * half)
-            lattice[c].append(centre)
-            centres.append(centre)
-        block_of.append(centres)
-        for k in range(4):
-            key = frozenset((quad[k], quad[(k + 1) % 4]))
-            sides[key] = sides.get(key, 0) + 1
-    com = np.array([np.mean(lattice[c], axis=0) for c in ordered])
-    mass = np.array([CORNER_MASS * len(lattice[c]) for c in ordered])
-    inertia = np.array([
-        sum(BLOCK_INERTIA + CORNER_MASS * ((bx - com[i, 0]) ** 2 + (by - com[i, 1]) ** 2)
-            for bx, by in lattice[c]) for i, c in enumerate(ordered)])
+        for k, (c, (ix, iy)) in enumerate(zip(((x, y), (x + 1, y), (x + 1, y + 1), (x, y + 1)),
+                                              _INTO_VOXEL)):
+            points[4 * v + k] = c
+            centre[4 * v + k] = (ix * half, iy * half)
+    world = points * VOXEL_SIDE + centre  # block centres at rest
 
-    def offset(i, point):
-        return (point[0] - com[i, 0], point[1] - com[i, 1])
-
-    springs, anchors, kinds, owners, spring_mass, ropes, rope_anchors = [], [], [], [], [], [], []
-    for v, centres in enumerate(block_of):
+    springs, anchors, kinds, owners, ropes = [], [], [], [], []
+    for v in range(len(voxels)):
         quad = corners[v]
-        middle = np.mean(centres, axis=0)
+        middle = world[quad].mean(axis=0)
         for ka, kb in _SIDES:
             a, b = int(quad[ka]), int(quad[kb])
-            ca, cb = np.array(centres[ka]), np.array(centres[kb])
+            ca, cb = world[a], world[b]
             u = (cb - ca) / np.linalg.norm(cb - ca)
             w = middle - (ca + cb) / 2
             w = w / np.linalg.norm(w)  # into the voxel
@@ -198,60 +139,44 @@ def geometry(body: Body) -> Geometry:
             b_out, b_in = cb - half * u - half * w, cb - half * u + half * w
             for pa, pb, kind in ((a_in, b_in, SPRING_SIDE), (a_out, b_out, SPRING_SIDE),
                                  (a_out, b_in, SPRING_CROSS), (a_in, b_out, SPRING_CROSS)):
-                d = (pb - pa) / np.linalg.norm(pb - pa)
                 springs.append((a, b))
-                anchors.append(offset(a, pa) + offset(b, pb))
+                anchors.append((*(pa - ca), *(pb - cb)))
                 kinds.append(kind)
                 owners.append(v)
-                spring_mass.append(_effective_mass(pa - ca, pb - cb, d))
             ropes.append((a, b))
-            rope_anchors.append(offset(a, ca) + offset(b, cb))
-        for ka, kb in ((3, 1), (2, 0)):  # NW - SE, NE - SW
-            a, b = int(quad[ka]), int(quad[kb])
-            ca, cb = centres[ka], centres[kb]
-            springs.append((a, b))
-            anchors.append(offset(a, ca) + offset(b, cb))
+        for ka, kb in ((NW, SE), (NE, SW)):
+            springs.append((int(quad[ka]), int(quad[kb])))
+            anchors.append((0.0, 0.0, 0.0, 0.0))
             kinds.append(SPRING_CENTRAL)
             owners.append(v)
-            spring_mass.append(CORNER_MASS / 2)
-    outline = []
-    for x, y in voxels:
-        quad = [(x, y), (x + 1, y), (x + 1, y + 1), (x, y + 1)]
-        for k in range(4):
-            if sides[frozenset((quad[k], quad[(k + 1) % 4]))] == 1:
-                outline.append(tuple((VOXEL_SIDE * c[0], VOXEL_SIDE * c[1])
-                                     for c in (quad[k], quad[(k + 1) % 4])))
-    tip_body, tip_offset, block_body, block_offset = [], [], [], []
-    for i, c in enumerate(ordered):
-        outer = []
-        for bx, by in lattice[c]:
-            square = [(bx + sx * half, by + sy * half) for sx, sy in _INTO_VOXEL]
-            if any(_on_outline(p, outline) for p in square):
-                block_body.append(i)
-                block_offset.append(offset(i, (bx, by)))
-                outer.extend(square)
-        for p in _hull(outer):
-            if _on_outline(p, outline):
-                tip_body.append(i)
-                tip_offset.append(offset(i, p))
-    lattice_m = np.array(ordered, dtype=np.float64) * VOXEL_SIDE
+    welds, weld_anchors = [], []
+    for v, (x, y) in enumerate(voxels):
+        for (dx, dy), pairs in _WELDS:
+            other = index.get((x + dx, y + dy))
+            if other is None:
+                continue
+            for mine, theirs in pairs:
+                a, b = 4 * v + mine, 4 * other + theirs
+                welds.append((a, b))
+                weld_anchors.append(tuple(world[a] - world[b]))
+    joined = {frozenset(e) for e in springs} | {frozenset(e) for e in ropes}
+    joined |= {frozenset(e) for e in welds}
+    reach = BLOCK_SIDE * math.sqrt(2.0) + 1e-9
+    pairs = [(a, b) for a in range(n) for b in range(a + 1, n)
+             if frozenset((a, b)) not in joined
+             and np.linalg.norm(world[a] - world[b]) <= reach]
     return Geometry(
-        points=np.asarray(ordered, dtype=np.float64),
-        mass=mass,
-        inertia=inertia,
-        centre=com - lattice_m,
+        points=points,
+        centre=centre,
         springs=np.asarray(springs, dtype=np.int32),
         anchors=np.asarray(anchors, dtype=np.float64),
         kinds=np.asarray(kinds, dtype=np.int32),
         owners=np.asarray(owners, dtype=np.int32),
-        spring_mass=np.asarray(spring_mass, dtype=np.float64),
         ropes=np.asarray(ropes, dtype=np.int32),
-        rope_anchors=np.asarray(rope_anchors, dtype=np.float64),
+        welds=np.asarray(welds, dtype=np.int32).reshape(-1, 2),
+        weld_anchors=np.asarray(weld_anchors, dtype=np.float64).reshape(-1, 2),
+        pairs=np.asarray(pairs, dtype=np.int32).reshape(-1, 2),
         corners=corners,
-        tip_body=np.asarray(tip_body, dtype=np.int32),
-        tip_offset=np.asarray(tip_offset, dtype=np.float64).reshape(-1, 2),
-        block_body=np.asarray(block_body, dtype=np.int32),
-        block_offset=np.asarray(block_offset, dtype=np.float64).reshape(-1, 2),
     )
 
 
@@ -315,8 +240,8 @@ def compile_system(
     normals = [_normals(t) for t in terrain_list]
     return System(
         n_points=np.array([len(g.points) for g in geoms], dtype=np.int32),
-        mass=pad([g.mass for g in geoms], (), np.float64, 1.0),
-        inertia=pad([g.inertia for g in geoms], (), np.float64, 1.0),
+        mass=pad([np.full(len(g.points), CORNER_MASS) for g in geoms], (), np.float64, 1.0),
+        inertia=pad([np.full(len(g.points), BLOCK_INERTIA) for g in geoms], (), np.float64, 1.0),
         initial_pos=pad(positions, (2,), np.float64),
         corner_offset=pad([-g.centre for g in geoms], (2,), np.float64),
         n_springs=np.array([len(g.springs) for g in geoms], dtype=np.int32),
@@ -324,19 +249,16 @@ def compile_system(
         spring_anchor=pad([g.anchors for g in geoms], (4,), np.float64),
         spring_kind=pad([g.kinds for g in geoms], (), np.int32),
         spring_owner=pad([g.owners for g in geoms], (), np.int32),
-        spring_mass=pad([g.spring_mass for g in geoms], (), np.float64, 1.0),
         n_ropes=np.array([len(g.ropes) for g in geoms], dtype=np.int32),
         rope_ends=pad([g.ropes for g in geoms], (2,), np.int32),
-        rope_anchor=pad([g.rope_anchors for g in geoms], (4,), np.float64),
+        n_welds=np.array([len(g.welds) for g in geoms], dtype=np.int32),
+        weld_ends=pad([g.welds for g in geoms], (2,), np.int32),
+        weld_anchor=pad([g.weld_anchors for g in geoms], (2,), np.float64),
+        n_pairs=np.array([len(g.pairs) for g in geoms], dtype=np.int32),
+        pair_ends=pad([g.pairs for g in geoms], (2,), np.int32),
         n_voxels=np.array([len(g.corners) for g in geoms], dtype=np.int32),
         voxel_corners=pad([g.corners for g in geoms], (4,), np.int32),
         voxel_x=pad([np.array([x for x, _ in b.shape.voxels]) for b in bodies], (), np.float64),
-        n_tips=np.array([len(g.tip_body) for g in geoms], dtype=np.int32),
-        tip_body=pad([g.tip_body for g in geoms], (), np.int32),
-        tip_offset=pad([g.tip_offset for g in geoms], (2,), np.float64),
-        n_blocks=np.array([len(g.block_body) for g in geoms], dtype=np.int32),
-        block_body=pad([g.block_body for g in geoms], (), np.int32),
-        block_offset=pad([g.block_offset for g in geoms], (2,), np.float64),
         n_readings=np.array([len(c) for c, _ in readings], dtype=np.int32),
         reading_code=pad([np.array(c, dtype=np.int32) for c, _ in readings], (), np.int32),
         reading_voxel=pad([np.array(v, dtype=np.int32) for _, v in readings], (), np.int32),

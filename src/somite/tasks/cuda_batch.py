@@ -20,7 +20,8 @@ import numpy as np
 from numba import config, cuda
 
 from .._jit import device_twin
-from ..sim.robot import ground_view, robot_in, scratch_in
+from ..sim.physics import N_CONTACT_COLUMNS, N_ROPE_COLUMNS, N_SPRING_COLUMNS, N_WELD_COLUMNS
+from ..sim.robot import contact_capacity, ground_view, robot_in, scratch_in
 from ..sim.sensors import lidar_rays
 from .episode import Controllers, Trace, episode
 
@@ -34,26 +35,18 @@ class Work(NamedTuple):
     inv_mass: np.ndarray  # (B, P) from robot_in
     inv_inertia: np.ndarray  # (B, P)
     rest: np.ndarray  # (B, S) the Scratch fields, in order
-    force: np.ndarray  # (B, P, 3)
     cos: np.ndarray  # (B, P)
     sin: np.ndarray  # (B, P)
-    rax: np.ndarray  # (B, S) .. tb: twelve of them
-    ray: np.ndarray
-    rbx: np.ndarray
-    rby: np.ndarray
-    dx: np.ndarray
-    dy: np.ndarray
-    dvx: np.ndarray
-    dvy: np.ndarray
-    fx: np.ndarray
-    fy: np.ndarray
-    ta: np.ndarray
-    tb: np.ndarray
-    dpos: np.ndarray  # (B, P, 3)
-    dvel: np.ndarray  # (B, P, 3)
-    hits: np.ndarray  # (B, P, 2)
+    spring: np.ndarray  # (B, S, N_SPRING_COLUMNS)
+    rope: np.ndarray  # (B, Y, N_ROPE_COLUMNS)
+    weld: np.ndarray  # (B, W, N_WELD_COLUMNS)
+    contacts: np.ndarray  # (B, capacity, N_CONTACT_COLUMNS)
+    previous: np.ndarray  # (B, capacity, N_CONTACT_COLUMNS)
+    counts: np.ndarray  # (B, 2) int64
+    polygon: np.ndarray  # (B, 2, 4, 4)
+    clipped: np.ndarray  # (B, 2, 4)
     contact: np.ndarray  # (B, P) bool
-    segment: np.ndarray  # (B, F + 1) int64
+    segment: np.ndarray  # (B, P + 1) int64
     body_pos: np.ndarray  # (B, P, 3) the state of episode()
     body_vel: np.ndarray  # (B, P, 3)
     pos: np.ndarray  # (B, P, 2) the voxel corners
@@ -91,7 +84,9 @@ def new_work(system, ctrl, params) -> Work:
     n = system.n_points.shape[0]
     p = system.initial_pos.shape[1]
     s = system.spring_ends.shape[1]
-    f = system.tip_body.shape[1]
+    y = system.rope_ends.shape[1]
+    w = system.weld_ends.shape[1]
+    c = contact_capacity(p, system.pair_ends.shape[1])
     v = system.voxel_corners.shape[1]
     r = system.reading_code.shape[1]
     nodes = max(1, ctrl.node_kind.shape[1])
@@ -100,8 +95,10 @@ def new_work(system, ctrl, params) -> Work:
         return robot_major(None, (n, *tail), dtype)
 
     return Work(
-        new(p), new(p), new(s), new(p, 3), new(p), new(p), *(new(s) for _ in range(12)),
-        new(p, 3), new(p, 3), new(p, 2), new(p, dtype=np.bool_), new(f + 1, dtype=np.int64),
+        new(p), new(p), new(s), new(p), new(p), new(s, N_SPRING_COLUMNS),
+        new(y, N_ROPE_COLUMNS), new(w, N_WELD_COLUMNS), new(c, N_CONTACT_COLUMNS),
+        new(c, N_CONTACT_COLUMNS), new(2, dtype=np.int64), new(2, 4, 4), new(2, 4),
+        new(p, dtype=np.bool_), new(p + 1, dtype=np.int64),
         new(p, 3), new(p, 3), new(p, 2), new(p, 2), new(v, 6), new(v, int(params.touch_window)),
         new(v, int(params.velocity_window), 2), new(r), new(v), new(nodes), new(nodes),
     )
@@ -133,14 +130,11 @@ def _run_batch(system, ctrl, params, noise, seeds, n_steps, trace, work, rays):
     robot = _robot_in(system, b, params, work.inv_mass[b, :n_points],
                       work.inv_inertia[b, :n_points])
     scratch = _scratch_in(
-        robot, work.rest[b, :n_springs], work.force[b, :n_points], work.cos[b, :n_points],
-        work.sin[b, :n_points], work.rax[b, :n_springs], work.ray[b, :n_springs],
-        work.rbx[b, :n_springs], work.rby[b, :n_springs], work.dx[b, :n_springs],
-        work.dy[b, :n_springs], work.dvx[b, :n_springs], work.dvy[b, :n_springs],
-        work.fx[b, :n_springs], work.fy[b, :n_springs], work.ta[b, :n_springs],
-        work.tb[b, :n_springs], work.dpos[b, :n_points], work.dvel[b, :n_points],
-        work.hits[b, :n_points], work.contact[b, :n_points],
-        work.segment[b, :system.n_tips[b] + 1],
+        robot, work.rest[b, :n_springs], work.cos[b, :n_points], work.sin[b, :n_points],
+        work.spring[b, :n_springs], work.rope[b, :system.n_ropes[b]],
+        work.weld[b, :system.n_welds[b]], work.contacts[b], work.previous[b], work.counts[b],
+        work.polygon[b], work.clipped[b], work.contact[b, :n_points],
+        work.segment[b, :n_points + 1],
     )
     _episode(b, system, ctrl, params, noise, seeds[b], n_steps, trace, robot,
              _ground_view(system, b), scratch, work.body_pos[b, :n_points],

@@ -2,7 +2,7 @@
 
 ``run_batch`` runs every robot's whole episode in one compiled loop, robots spread over the
 cores with ``prange``. Per control step k = 1..n_steps (original-system.md section 1.6): the
-physics advances ``substeps`` substeps under the actuation of step k - 1, the sensors read, the
+physics advances ``substeps`` steps under the actuation of step k - 1, the sensors read, the
 controller computes the actuation for step k. Nothing is shared between robots but read-only
 inputs, so a robot's outcome is the same whatever batch it runs in.
 """
@@ -37,8 +37,8 @@ STATUS_OK, STATUS_NONFINITE = 0, 1
 
 # Diagnostics of an episode, measured on every control step after the first SETTLE_STEPS (the
 # robot is dropped at the start), as in the reference measurements of shared/reference.
-D_MAX_TILT, D_FLIPPED, D_MAX_GAP, D_MAX_COM_HEIGHT, D_MAX_COM_SPEED = range(5)
-N_DIAGNOSTICS = 5
+D_MAX_TILT, D_FLIPPED, D_MAX_GAP, D_MAX_COM_HEIGHT, D_MAX_COM_SPEED, D_MIN_GAP = range(6)
+N_DIAGNOSTICS = 6
 SETTLE_STEPS = 120
 """2 s: the fall from the starting height is over."""
 
@@ -146,6 +146,7 @@ def _observe(k, robot, ground, n_points, mass, pos, vel, cos, sin, cx, cy, tilt,
     if k > params.transient_steps and tilt > 90.0:
         out[D_FLIPPED] += 1.0
     out[D_MAX_GAP] = max(out[D_MAX_GAP], gap)
+    out[D_MIN_GAP] = min(out[D_MIN_GAP], gap)
     height = cy - ground_height(ground.xs, ground.ys, ground.n, cx,
                                 segment_near(ground.xs, ground.n, cx, near))
     out[D_MAX_COM_HEIGHT] = max(out[D_MAX_COM_HEIGHT], height)
@@ -249,6 +250,7 @@ def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground,
         x_hi = max(x_hi, voxel_x[v])
     diagnostics = trace.diagnostics[b]
     diagnostics[D_MAX_GAP] = -np.inf
+    diagnostics[D_MIN_GAP] = np.inf
     non_finite = 0
     for k in range(1, n_steps + 1):
         set_rest_lengths(robot.n_springs, robot.kind, robot.owner, actuation, params.contract,
@@ -273,7 +275,7 @@ def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground,
         voxel_state(n_voxels, robot.corners, pos, vel, angle, voxels)
         for v in range(n_voxels):
             smallest = min(smallest, voxels[v, 4])
-        near = scratch.segment[robot.n_tips]
+        near = scratch.segment[robot.n_points]
         tilt = _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels)
         _observe(k, robot, ground, n_points, mass, body_pos, body_vel, scratch.cos, scratch.sin,
                  cx, cy, tilt, near, params, diagnostics)

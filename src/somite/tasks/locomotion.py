@@ -25,6 +25,7 @@ from .episode import (
     D_FLIPPED,
     D_MAX_GAP,
     D_MAX_TILT,
+    D_MIN_GAP,
     GRAPH,
     SETTLE_STEPS,
     SINE,
@@ -57,7 +58,11 @@ class Outcome:
     flipped_fraction: float = math.nan
     """Share of the scored steps (after ``transient``) with that angle over 90 degrees."""
     max_height: float = math.nan
-    """Highest that the robot's lowest corner got above the ground, after the first 2 s [m]."""
+    """Highest that the robot's lowest block corner got above the ground, after the first 2 s
+    [m]."""
+    min_height: float = math.nan
+    """Lowest that it got, after the first 2 s [m]: how far the blocks sank into the ground
+    (< 0), or how high the robot stayed (a robot on its back still has blocks on the ground)."""
     non_finite: int = 0
     """Control steps at which a controller output (actuation) or the physics state (corner
     positions, velocities) held a NaN or an infinity. The episode stops at the first
@@ -75,6 +80,7 @@ class Outcome:
             "max_tilt_deg": self.max_tilt_deg,
             "flipped_fraction": self.flipped_fraction,
             "max_height": self.max_height,
+            "min_height": self.min_height,
             "non_finite": self.non_finite,
         }
 
@@ -156,6 +162,7 @@ def outcomes(trace: Trace, config: SimConfig) -> list[Outcome]:
                 max_tilt_deg=float(d[D_MAX_TILT]) if observed else math.nan,
                 flipped_fraction=float(d[D_FLIPPED]) / (end - start) if observed else math.nan,
                 max_height=float(d[D_MAX_GAP]) if observed else math.nan,
+                min_height=float(d[D_MIN_GAP]) if observed else math.nan,
                 non_finite=int(trace.non_finite[b]),
             )
         )

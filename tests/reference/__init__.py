@@ -1,1 +1,0 @@
-"""Slow NumPy oracles of the compiled kernels, for the tests."""

@@ -805,6 +805,8 @@ def add_contacts(robot, scratch, pos, a, b, partner, one, two, mu) -> int:
     c = scratch.contacts
     old = scratch.previous
     n = scratch.counts[0]
+    if n + points > c.shape[0]:
+        return 0  # the table is full (robot.contact_capacity): this pair waits a step
     cos = scratch.cos
     sin = scratch.sin
     for q in range(points):

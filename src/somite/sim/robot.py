@@ -71,10 +71,11 @@ class Scratch(NamedTuple):
 
 @njit
 def contact_capacity(n_points: int, n_pairs: int) -> int:
-    """Most contact points a robot can have at once: two per block and terrain segment under
-    it (a block spans at most two segments, hilly segments being >= 1 m long), two per
-    colliding pair."""
-    return 4 * n_points + 2 * n_pairs
+    """Room for a robot's contact points: two per block and terrain segment under it, for up
+    to three segments a block (hilly segments are at least 1 m long, a block 1.7 m wide at
+    most), and two per colliding pair. Steppy terrains' short risers can bring more; the
+    contacts that find the table full wait for the next step."""
+    return 6 * n_points + 2 * n_pairs
 
 
 @njit

@@ -7,15 +7,17 @@ STAMP := $(VENV)/.installed
 .PHONY: demo test bench clean
 
 $(STAMP): pyproject.toml
+	@echo "creating $(VENV) and installing somite with its dependencies into it (about a minute)"
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e ".[test]"
+	$(BIN)/pip install --progress-bar off -e ".[test]"
 	touch $(STAMP)
 
 demo: $(STAMP)
 	$(BIN)/somite demo --out demo
 
 test: $(STAMP)
+	@echo "running the test suite (about 10 minutes on 2 cores; the first tests compile the kernels)"
 	$(BIN)/python -m pytest -q
 
 bench: $(STAMP)

@@ -1,4 +1,4 @@
-"""Shapes, sensor layouts and the stable order of readings (original-system.md section 3)."""
+"""Shapes, sensor layouts and the stable order of readings (docs/original-system.md section 3)."""
 
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ def test_paper_sensor_counts():
 
 
 def test_reading_order_follows_the_original_layout():
-    # original-system.md section 3: worm (5,0) -> a, t, l0..l4; (5,1) -> a, vx, vy, l0..l4
+    # docs/original-system.md section 3: worm (5,0) -> a, t, l0..l4; (5,1) -> a, vx, vy, l0..l4
     readings = Body.build("worm").readings
     v50 = Shape.parse("worm").index(5, 0)
     kinds = [(r.kind, r.component) for r in readings if r.voxel == v50]

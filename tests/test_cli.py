@@ -18,7 +18,7 @@ def test_simulate_json(capsys):
                  "sine:freq=1,amp=1,phase=-1", "--duration", "3", "--json"])
     assert code == 0
     report = json.loads(capsys.readouterr().out)
-    assert set(report) >= {"velocity", "distance", "final_com", "max_corner_speed", "finite"}
+    assert set(report) >= {"velocity", "distance", "final_com", "max_speed", "finite"}
     assert report["finite"] is True and report["terrain"] == "hilly-1-10-0"
 
 

@@ -75,7 +75,7 @@ def ground_quad(x0, y0, x1, y1, depth=50.0) -> np.ndarray:
 
 # the spring ranges ---------------------------------------------------------------------------
 
-ORIGINAL_RANGES = {  # original-system.md section 1.2: [min, rest, max] lengths per group
+ORIGINAL_RANGES = {  # docs/original-system.md section 1.2: [min, rest, max] lengths per group
     SPRING_SIDE: (0.24102, 0.6, 0.92039),
     SPRING_CROSS: (1.22397, 1.34164, 1.51232),
     SPRING_CENTRAL: (2.03791, 2.54558, 2.99869),
@@ -137,7 +137,7 @@ def test_each_voxel_has_its_own_four_blocks_18_springs_4_ropes_and_two_welds_per
 
 
 def test_the_papers_bodies_have_the_originals_weld_counts():
-    # original-system.md section 1.4: the biped 12 adjacencies (24 welds), the worm 16 (32)
+    # docs/original-system.md section 1.4: the biped 12 adjacencies (24 welds), the worm 16 (32)
     assert len(geometry(Body.build("biped", "none")).welds) == 24
     assert len(geometry(Body.build("worm", "none")).welds) == 32
 
@@ -254,7 +254,7 @@ def test_springs_ropes_and_welds_move_no_centre_of_mass_in_the_air():
 
 
 def test_a_contracted_bottom_voxel_lifts_its_blocks_and_reads_no_touch():
-    """Touch is per voxel, on its own blocks (original-system.md section 2.1): the worm's
+    """Touch is per voxel, on its own blocks (docs/original-system.md section 2.1): the worm's
     contracted end voxel pulls its free block off the ground and hangs on its welds, so it
     reads 0, while a resting voxel of the same row reads 1 (one body per lattice point would
     have read 1 for both: the contracted voxel's welded block still rests on the ground)."""

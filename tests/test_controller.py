@@ -1,4 +1,7 @@
-"""The graph controller's step against a plain-Python reference (decisions.md)."""
+"""The graph controller's step against a plain-Python reference.
+
+See docs/decisions.md, "The controller".
+"""
 
 from __future__ import annotations
 

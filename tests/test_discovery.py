@@ -74,7 +74,7 @@ def test_enumeration_is_every_connected_subset(shape):
 
 
 def test_biped_l_triomino_is_a_candidate():
-    """The authors' partial enumeration misses it (original-system.md section 7)."""
+    """The authors' partial enumeration misses it (docs/original-system.md section 7)."""
     shape = Shape.parse("biped")
     l_shape = tuple(sorted(shape.index(*v) for v in [(0, 1), (0, 2), (1, 2)]))
     assert l_shape in connected_sets(shape, 3, 3)

@@ -24,7 +24,9 @@ from somite.experiments.config import resolve
 from somite.experiments.runner import LOG_COLUMNS, evolve
 from somite.sim.body import Body
 from somite.sim.partition import Partition
+from somite.sim.terrain import parse_terrain
 from somite.tasks.task import Locomotion
+from somite.tasks.validation import fresh_noise
 
 SMALL = {"shape": "worm", "population": 8, "generations": 4, "duration": 3.0, "seed": 3}
 
@@ -200,11 +202,16 @@ def test_a_short_run_improves(tmp_path):
     says)."""
     from somite.commands.demo import DEMO
 
-    evolve(resolve({**DEMO, "generations": 15}), tmp_path / "run")
+    config = resolve({**DEMO, "generations": 15})
+    ea = evolve(config, tmp_path / "run")
     table = rows(tmp_path / "run")
     first, last = float(table[0]["best_velocity"]), float(table[-1]["best_velocity"])
     assert last > first + 0.3
     assert float(table[-1]["median_size"]) >= float(table[0]["median_size"])
+    # The demo's rule: its training figure is what the robot does, within 20% of the mean
+    # over 5 fresh noise draws (on one fixed terrain the noise is the only luck).
+    fresh = fresh_noise(ea.best, parse_terrain(config.terrain), config.task().sim, 5, seed=99)
+    assert abs(last - fresh.mean()) <= 0.2 * abs(fresh.mean())
 
 
 def test_evaluate_reports_every_validation_terrain(tmp_path, capsys):

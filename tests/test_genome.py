@@ -57,7 +57,7 @@ def test_initial_sizes_match_table_1(shape, n_nodes, n_edges):
 
 def test_worm_node_ids_follow_the_original_layout(worm):
     by_id = {n.id: n for n in worm.nodes}
-    # original-system.md section 3: (5,0) -> 15-21 / act 22; (5,1) -> 43-50 / act 51.
+    # docs/original-system.md section 3: (5,0) -> 15-21 / act 22; (5,1) -> 43-50 / act 51.
     assert [(by_id[i].x, by_id[i].y, by_id[i].slot) for i in range(15, 22)] == [
         (5, 0, s) for s in range(7)
     ]
@@ -274,7 +274,7 @@ def test_compile_maps_worm_sensors_to_readings(worm):
     readings = worm.body.readings
     by_id = {n.id: i for i, n in enumerate(worm.nodes)}
     voxel_50 = worm.body.shape.index(5, 0)
-    # Worm voxel (5,0) reads a, t, l0..l4 (original-system.md section 3): nodes 15-21.
+    # Worm voxel (5,0) reads a, t, l0..l4 (docs/original-system.md section 3): nodes 15-21.
     expected = [("area", 0), ("touch", 0)] + [("lidar", c) for c in range(5)]
     got = [readings[arrays.node_ref[by_id[i]]] for i in range(15, 22)]
     assert [(r.voxel, r.kind, r.component) for r in got] == [(voxel_50, *e) for e in expected]

@@ -1,4 +1,4 @@
-"""Which parts of somite may import which (the layout of STYLE.md, as the code is meant to be).
+"""Which parts of somite may import which (the package's intended layering).
 
 Read statically from the source, so an import inside a function counts like one at the top:
 

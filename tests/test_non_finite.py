@@ -66,8 +66,10 @@ def test_simulate_command_reports_and_warns(capsys):
                  "--json"]) == 0
     captured = capsys.readouterr()
     assert json.loads(captured.out)["non_finite"] == 60
-    assert captured.err.count("\n") == 1 and "warning" in captured.err
-    assert main(["simulate", "--controller", "sine", "--duration", "1", "--json"]) == 0
+    # One warning for the non-finite steps, one for the 1 s episode (within the transient).
+    assert captured.err.count("\n") == 2 and "at 60 control steps" in captured.err
+    assert "measured over the whole episode" in captured.err
+    assert main(["simulate", "--controller", "sine", "--duration", "6", "--json"]) == 0
     captured = capsys.readouterr()
     assert json.loads(captured.out)["non_finite"] == 0 and captured.err == ""
 

@@ -228,6 +228,7 @@ def test_checkpoint_of_another_run_or_generation_is_refused(tmp_path, capsys):
     own = (run / "checkpoint.json").read_text()
     for variation in (["--shape", "biped"], ["--seed", "3"], ["--sensors", "none"]):
         assert main([*SHORT, *variation, "--out", str(other), "--force"]) == 0
+        capsys.readouterr()  # the 2 s episodes' warning (within the transient)
         (run / "checkpoint.json").write_text((other / "checkpoint.json").read_text())
         refused(run, capsys, "belongs to another run")
     state = json.loads(own)
@@ -254,6 +255,7 @@ def test_force_deletes_only_what_the_manifest_lists(tmp_path, capsys):
     (run / "config.json").unlink()
     assert main([*SHORT, "--out", str(run)]) == 0
     assert main([*SHORT, "--out", str(run), "--force", "--seed", "9"]) == 0
+    capsys.readouterr()  # the 2 s episodes' warnings (within the transient)
     (run / "notes.txt").write_text("mine\n")
     refused_force(run, capsys, [], "holds notes.txt, which is not a file of the run")
     (run / "notes.txt").unlink()
@@ -282,6 +284,7 @@ def files_and_folders(run: Path) -> dict[str, bytes | None]:
 def test_damaged_config_json_is_refused_on_resume(tmp_path, capsys, text):
     run = tmp_path / "run"
     assert main([*SHORT, "--out", str(run)]) == 0
+    capsys.readouterr()  # the 2 s episodes' warning (within the transient)
     (run / "config.json").write_text(text)
     before = files(run)
     assert main(["evolve", "--out", str(run), "--resume", "--quiet"]) == 2

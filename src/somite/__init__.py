@@ -31,12 +31,22 @@ _EXPORTS = {
     "Terrain": "somite.sim.terrain",
     "parse_terrain": "somite.sim.terrain",
     "Genome": "somite.brain.genome",
+    "Sine": "somite.brain.controllers",
+    "Zero": "somite.brain.controllers",
+    "Table": "somite.brain.controllers",
     "GAConfig": "somite.evolution.config",
     "OperatorConfig": "somite.evolution.operators",
     "GraphEA": "somite.evolution.ea",
     "Locomotion": "somite.tasks.task",
     "simulate": "somite.tasks.task",
     "Outcome": "somite.tasks.locomotion",
+    "simulate_batch": "somite.tasks.locomotion:simulate",
+    "evaluate_genomes": "somite.tasks.validation:evaluate",
+    "validation_terrains": "somite.tasks.validation",
+    "fresh_noise": "somite.tasks.validation",
+    "preset": "somite.sim.config",
+    "record_episode": "somite.viz.video",
+    "render_episode": "somite.viz.video",
     "TerrainDistribution": "somite.tasks.distributions",
     "mean_velocity": "somite.tasks.velocity",
     "rho": "somite.tasks.velocity",
@@ -53,7 +63,9 @@ __all__ = sorted(_EXPORTS)
 def __getattr__(name: str):
     if name not in _EXPORTS:
         raise AttributeError(f"module 'somite' has no attribute {name!r}")
-    value = getattr(import_module(_EXPORTS[name]), name)
+    # "module:attribute" exports a name under another one.
+    module, _, attribute = _EXPORTS[name].partition(":")
+    value = getattr(import_module(module), attribute or name)
     globals()[name] = value
     return value
 

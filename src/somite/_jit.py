@@ -41,3 +41,21 @@ def device_twin(kernel):
     twin.__qualname__ = source.__qualname__
     twin.__module__ = source.__module__
     return cuda.jit(device=True)(twin)
+
+
+def on_disk(kernel) -> bool | None:
+    """Whether Numba's on-disk cache holds a compiled ``kernel`` (an :func:`njit` function):
+    its index file in the ``__pycache__`` beside the source, as Numba names it. None when
+    that cannot be told (``NUMBA_CACHE_DIR`` moves the cache elsewhere). An index can be
+    stale after an edit, so True means "probably compiled"; it serves a message only."""
+    import os
+    import sys
+    from pathlib import Path
+
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return None
+    code = kernel.py_func.__code__
+    source = Path(code.co_filename)
+    tag = f"py{sys.version_info.major}{sys.version_info.minor}"
+    name = f"{source.stem}.{kernel.py_func.__qualname__}-{code.co_firstlineno}.{tag}.nbi"
+    return (source.parent / "__pycache__" / name).is_file()

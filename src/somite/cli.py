@@ -20,8 +20,24 @@ def command_names() -> list[str]:
     return sorted(n for n in names if not n.startswith("_") and n != "common")
 
 
+class _Help(argparse.HelpFormatter):
+    """Every option's help ends with its default, unless it names one itself."""
+
+    def _get_help_string(self, action):  # argparse's hook
+        text = action.help or ""
+        if (not action.option_strings or "default" in text
+                or action.default in (None, False, (), argparse.SUPPRESS)):
+            return text
+        return f"{text} (default: %(default)s)" if text else "default: %(default)s"
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse, but errors are one line (no usage dump) with exit code 2."""
+    """argparse, but errors are one line (no usage dump) with exit code 2, and help shows
+    every default."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", _Help)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # noqa: D102 - argparse's hook
         sys.stderr.write(f"{self.prog}: error: {message}\n")
@@ -36,6 +52,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="Evolve embodied, modular neural controllers for 2-D voxel-based soft "
         "robots. `somite COMMAND --help` gives each command's options.",
     )
+    from importlib.metadata import version
+
+    parser.add_argument("--version", action="version", version=f"somite {version('somite')}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name in command_names():
         module = import_module(f".commands.{name}", __package__)

@@ -2,6 +2,7 @@
 
 from .stats import (
     LOG_COLUMNS,
+    MIN_GROUP_SIZE,
     MannWhitney,
     PairTest,
     RunLog,
@@ -12,10 +13,12 @@ from .stats import (
     mann_whitney,
     pairwise_mann_whitney,
     run_statistics,
+    small_sample_caveat,
 )
 
 __all__ = [
     "LOG_COLUMNS",
+    "MIN_GROUP_SIZE",
     "MannWhitney",
     "PairTest",
     "RunLog",
@@ -26,4 +29,5 @@ __all__ = [
     "mann_whitney",
     "pairwise_mann_whitney",
     "run_statistics",
+    "small_sample_caveat",
 ]

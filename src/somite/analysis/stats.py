@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._io import read_json
-from ..errors import bad
+from ..errors import SomiteError, bad
 from ..experiments.logfile import LOG_COLUMNS
 
 NUMERIC_COLUMNS = tuple(c for c in LOG_COLUMNS if c != "best_operator")
@@ -163,6 +163,31 @@ def final_values(runs: Iterable[RunLog], column: str = "best_velocity") -> np.nd
     return values[np.isfinite(values)]
 
 
+MIN_GROUP_SIZE = 3
+"""The fewest values per group for which a Mann-Whitney p-value is shown without a caveat.
+
+The test's exact null distribution has C(n1 + n2, n1) equally likely splits of the pooled
+values, so no data can give a p below 1 / C(n1 + n2, n1) one-sided: with n1 = n2 = 2 that is
+1/6 (1/3 two-sided), with 2 and 3 it is 1/10, and only from 3 and 3 on (1/20 = 0.05) can the
+usual 5 % level be reached at all. Below this size the p-value is kept, with
+:func:`small_sample_caveat` beside it."""
+
+
+def small_sample_caveat(n_a: int, n_b: int) -> str | None:
+    """The note beside a Mann-Whitney p-value of samples of ``n_a`` and ``n_b`` values:
+    None when both hold at least :data:`MIN_GROUP_SIZE`, or when a sample is empty (no
+    p-value at all)."""
+    if min(n_a, n_b) >= MIN_GROUP_SIZE or min(n_a, n_b) == 0:
+        return None
+    return f"n < {MIN_GROUP_SIZE} per group: not meaningful"
+
+
+def smallest_p(n_a: int, n_b: int) -> float:
+    """The smallest two-sided p the exact Mann-Whitney test can give for ``n_a`` and ``n_b``
+    values without ties: both extreme splits out of C(n_a + n_b, n_a)."""
+    return min(1.0, 2 / math.comb(n_a + n_b, n_a))
+
+
 class MannWhitney(NamedTuple):
     """A two-sided Mann-Whitney U test: U of the first sample, and the p-value."""
 
@@ -198,6 +223,16 @@ class PairTest(NamedTuple):
     u: float
     p: float
 
+    @property
+    def caveat(self) -> str | None:
+        """:func:`small_sample_caveat` of the two groups' sizes."""
+        return small_sample_caveat(self.n_a, self.n_b)
+
+    def to_dict(self, name: str = "mann-whitney-u, two-sided") -> dict:
+        """The test as report and statistics files write it; ``caveat`` is null when the
+        groups are large enough (:data:`MIN_GROUP_SIZE`)."""
+        return {"test": name, **self._asdict(), "caveat": self.caveat}
+
 
 def pairwise_mann_whitney(samples: Mapping[str, Sequence[float]]) -> list[PairTest]:
     """A two-sided Mann-Whitney U test for every pair of groups, in the groups' order."""
@@ -227,7 +262,9 @@ def run_statistics(
     groups: Mapping[str, Sequence[RunLog]], column: str = "best_velocity"
 ) -> dict:
     """What ``somite plot`` writes as JSON: per group the final ``column`` of every run and its
-    summary, plus the pairwise two-sided Mann-Whitney tests.
+    summary, the pairwise two-sided Mann-Whitney tests (each with its ``caveat``, null unless
+    a group is smaller than :data:`MIN_GROUP_SIZE`), and the runs whose v_x was measured over
+    the whole episode (:func:`measures_whole_episode`).
 
     NaN (an empty group or a failed test) is written as null by :func:`to_json`.
     """
@@ -244,11 +281,28 @@ def run_statistics(
             }
             for label in groups
         },
-        "tests": [
-            {"test": "mann-whitney-u, two-sided", **test._asdict()}
-            for test in pairwise_mann_whitney(samples)
-        ],
+        "tests": [test.to_dict() for test in pairwise_mann_whitney(samples)],
+        # v_x over [0, duration] is not v_x over [transient, duration]: named, not hidden.
+        "whole_episode_runs": [str(run.path) for runs in groups.values() for run in runs
+                               if measures_whole_episode(run.config)],
     }
+
+
+def measures_whole_episode(config: Mapping) -> bool:
+    """Whether a run's ``config.json`` had v_x measured over the whole episode (a duration
+    no longer than the transient, :attr:`~somite.sim.config.SimConfig.measures_whole_episode`);
+    False when it lacks either setting."""
+    from ..sim.config import SimConfig
+
+    duration, transient = config.get("duration"), config.get("transient")
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+               for v in (duration, transient)):
+        return False
+    try:
+        config = SimConfig(duration=float(duration), transient=float(transient))
+    except SomiteError:  # settings no episode could have run with: nothing to say about them
+        return False
+    return config.measures_whole_episode
 
 
 def to_json(data) -> str:

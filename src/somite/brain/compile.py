@@ -1,7 +1,9 @@
-"""Genome -> GraphArrays: the flat form the episode kernel runs (decisions.md, "The controller").
+"""Genome -> GraphArrays: the flat form the episode kernel runs.
+
+See docs/decisions.md, "The controller".
 
 A sensor node refers to its reading by position in ``body.readings`` (voxel by voxel, slot by
-slot, original-system.md section 3), an actuator node to its voxel's position in
+slot, docs/original-system.md section 3), an actuator node to its voxel's position in
 ``body.shape.voxels``; edges refer to nodes by position in ``genome.nodes``.
 """
 

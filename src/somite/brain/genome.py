@@ -1,7 +1,7 @@
 """The graph genome of a controller: nodes placed in voxels, weighted edges between them.
 
 A node is a SENSOR (one scalar reading of its voxel), a HIDDEN node or an ACTUATOR (its voxel's
-actuator); an edge u -> v carries a weight and a bias (original-system.md sections 4.1 and 3).
+actuator); an edge u -> v carries a weight and a bias (docs/original-system.md sections 4.1, 3).
 Nodes have stable integer ids; positions in the tuples mean nothing to the controller, which
 updates all nodes synchronously. The genome is immutable: operators build new ones.
 
@@ -151,7 +151,7 @@ class Genome:
 
     @property
     def size(self) -> int:
-        """|G| = |V| + |E| (original-system.md section 4.1)."""
+        """|G| = |V| + |E| (docs/original-system.md section 4.1)."""
         return len(self.nodes) + len(self.edges)
 
     @property

@@ -1,4 +1,4 @@
-"""The graph controller's synchronous step (decisions.md, "The controller").
+"""The graph controller's synchronous step (docs/decisions.md, "The controller").
 
 At control step k, with h_0 = 0: a sensor node reads h_k = tanh(reading_k); every other node
 computes h_k = act(sum over its incoming edges of h_{k-1}(source) * w + b): one step of delay per

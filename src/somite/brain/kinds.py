@@ -1,4 +1,4 @@
-"""Node kinds of the graph controller, defined once (original-system.md section 4.1).
+"""Node kinds of the graph controller, defined once (docs/original-system.md section 4.1).
 
 A node is a sensor (one scalar reading of its voxel), a hidden node or an actuator (its voxel's
 actuator). Genomes and their files name a kind by its string; arrays (:class:`GenomeIndex`, the

@@ -1,8 +1,8 @@
 """The built-in campaigns: the paper's experiments at three budgets, one structure.
 
-``paper`` is the paper's budget (sections 5.1-5.3); ``quick`` the same structure sized to
-finish in about half an hour on 2 cores (``somite campaign list`` gives its robot-control-steps;
-divide by ``somite bench``'s steps per second); ``smoke`` every stage at a budget of seconds, for
+``paper`` is the paper's budget (sections 5.1-5.3); ``quick`` the same structure at about
+1/60 of its evaluations per run, a few hours on 2 cores (``somite campaign list`` gives its
+robot-control-steps and a time estimate); ``smoke`` every stage at a budget of seconds, for
 tests and for trying the machinery out. Only the numbers in :data:`BUDGETS` differ.
 """
 
@@ -16,7 +16,7 @@ BUDGETS: dict[str, dict] = {
               "reoptimize": 510, "validation": 10},
     # 3 seeds (the fewest for which run i + run i+1 pairs differ from run i+1 + run i), a third
     # of the population, 1/20 of the generations; re-optimisation keeps the paper's 17% ratio.
-    # 5.3e8 robot-control-steps: 30 min at the 2-core figure of BENCHMARKS.md (300k/s).
+    # 5.3e8 robot-control-steps: about 3.5 h at the 2-core figure of BENCHMARKS.md (~40k/s).
     "quick": {"seeds": 3, "defaults": {"generations": 150, "population": 32,
                                        "validate_every": 25},
               "reoptimize": 25, "validation": 10},

@@ -8,7 +8,7 @@ import json
 from .._io import check_output_folder, make_folder, write_atomic
 from ..errors import bad
 from ..modules.library import assemble, list_library, parse_placement
-from .common import add_simulation_options, simulation_config
+from .common import add_simulation_options, simulation_config, warn_whole_episode
 
 HELP = "Assemble a robot from library modules placed at grid offsets (NAME@X,Y)."
 
@@ -50,6 +50,8 @@ def run(args: argparse.Namespace) -> int:
     if evaluation is not None:
         v = evaluation["v_x"]
         print(f"  v_x {'n/a' if v is None else f'{v:.3f}'} m/s on {args.evaluate} terrains")
+    if config is not None:
+        warn_whole_episode(args.prog, config)  # last: a caveat on the result
     return 0
 
 

@@ -92,26 +92,85 @@ def _run(args: argparse.Namespace) -> int:
     return 1 if outcome.failed or outcome.skipped else 0
 
 
+STEPS_PER_CORE_SECOND = 20_000
+"""Robot-control-steps a second that one core simulates, for ``campaign list``'s time
+estimate: BENCHMARKS.md's kernel figure for the worm (the slower shape), 39,225 a second on 2
+cores (2 Numba threads), halved. A campaign runs one single-threaded task a core at 0.99x the
+kernel's rate (BENCHMARKS.md, "Campaigns on Dask"), so the estimate scales with the cores
+(campaigns have far more tasks than cores until their last few)."""
+
+_KINDS = ("evolve", "reassemble", "reoptimize", "discover")
+
+
 def _list(args: argparse.Namespace) -> int:
     from rich.console import Console
-    from rich.table import Table
 
     from ..campaigns.builtin import BUDGETS, builtin
+    from ..campaigns.executor import cores
     from ..campaigns.tasks import estimate, expand
 
-    grid = Table(title="built-in campaigns")
-    for name in ("campaign", "tasks", "evolve", "reassemble", "reoptimize", "discover",
-                 "robot-control-steps"):
-        grid.add_column(name, justify="left" if name == "campaign" else "right")
+    n = cores()
+    rows = []
     for name in BUDGETS:
         tasks = expand(builtin(name))
-        kinds = [sum(t["kind"] == k for t in tasks)
-                 for k in ("evolve", "reassemble", "reoptimize", "discover")]
-        grid.add_row(name, str(len(tasks)), *map(str, kinds),
-                     f"{sum(estimate(t) for t in tasks):.2e}")
-    Console().print(grid)
-    print("time: robot-control-steps / `somite bench`'s robot_control_steps_per_second")
+        kinds = [sum(t["kind"] == k for t in tasks) for k in _KINDS]
+        steps = sum(estimate(t) for t in tasks)
+        rows.append([name, str(len(tasks)), *map(str, kinds), f"{steps:.2e}",
+                     _about(steps / (STEPS_PER_CORE_SECOND * n))])
+    console = Console()
+    console.print(_fit(console, lambda compact: _list_table(rows, n, compact)))
+    # Through rich, so that the note wraps at the terminal's width too.
+    console.print(f"time: the simulation alone (not Dask's start or Numba's first compilation) "
+                  f"at {STEPS_PER_CORE_SECOND:,} robot-control-steps/s a core (BENCHMARKS.md, "
+                  f"the worm) on this machine's {n} cores; `somite bench` measures the rate "
+                  "here")
     return 0
+
+
+def _list_table(rows: list[list[str]], n: int, compact: bool):
+    """The built-ins' table; ``compact``: the long headers on several lines, 80 columns hold
+    it then."""
+    from rich.table import Table
+
+    steps = "robot-\ncontrol-\nsteps" if compact else "robot-control-steps"
+    time = f"time on\n{n} cores" if compact else f"time on {n} cores"
+    grid = Table(title="built-in campaigns", **_style(compact))
+    for name in ("campaign", "tasks", *_KINDS, steps, time):
+        grid.add_column(name, justify="left" if name == "campaign" else "right", no_wrap=True)
+    for row in rows:
+        grid.add_row(*row)
+    return grid
+
+
+def _about(seconds: float) -> str:
+    """A rough duration, in the unit that keeps it short."""
+    if seconds < 90:
+        return f"~{seconds:.0f} s"
+    if seconds < 90 * 60:
+        return f"~{seconds / 60:.0f} min"
+    if seconds < 48 * 3600:
+        return f"~{seconds / 3600:.1f} h"
+    return f"~{seconds / 86400:.0f} d"
+
+
+def _style(compact: bool) -> dict:
+    """Table options: rich's default rules, or (``compact``) only the rule under the header and
+    two spaces between columns, where the rules and padding would take 3 a column."""
+    from rich import box
+
+    if not compact:
+        return {"box": box.HEAVY_HEAD}
+    return {"box": box.SIMPLE_HEAD, "show_edge": False, "padding": (0, 0, 0, 1)}
+
+
+def _fit(console, table):
+    """``table(compact=False)`` where the terminal is wide enough for it, else
+    ``table(compact=True)``: no cell is cut to "…" either way (rich would cut every column
+    of a table too wide for the terminal)."""
+    wide = table(False)
+    # Measured unbounded: a measurement within the terminal's width is clamped to it.
+    natural = console.measure(wide, options=console.options.update_width(10**6)).maximum
+    return wide if natural <= console.width else table(True)
 
 
 def _status(args: argparse.Namespace) -> int:
@@ -123,10 +182,12 @@ def _status(args: argparse.Namespace) -> int:
     directory = Path(args.directory)
     doc = campaign_dir.read(directory)
     infos = states(directory, doc)
-    Console().print(_table(directory, doc, infos))
+    console = Console()
+    console.print(_fit(console, lambda compact: _table(directory, doc, infos, compact)))
     now = snapshot(doc, infos)
-    print(", ".join(f"{n} {k}" for k, n in now.counts.items()) +
-          f"; {now.fraction:.1%} of {now.steps[1]:.3g} robot-control-steps")
+    # Through rich, so that the line wraps at the terminal's width too.
+    console.print(", ".join(f"{n} {k}" for k, n in now.counts.items()) +
+                  f"; {now.fraction:.1%} of {now.steps[1]:.3g} robot-control-steps")
     return 0
 
 
@@ -139,23 +200,43 @@ def _fmt(value) -> str:
     return "-" if value is None else f"{value:.3f}"
 
 
-def _table(directory: Path, doc: dict, infos: list[dict]):
+def _table(directory: Path, doc: dict, infos: list[dict], compact: bool = False):
     """The table of every task: id, kind, state, generation/total, the logged best v_x (a
-    lucky draw of terrains) and the best's v_x on the validation terrains where measured."""
+    lucky draw of terrains) and the best's v_x on the validation terrains where measured.
+
+    ``compact`` (a terminal too narrow for the whole ids, which take 44 characters in the
+    built-ins): the tasks grouped under a row of their experiment, each named without it, the
+    two-word headers on two lines and no space before the first column, which 80 columns hold
+    (the longest built-in names just); a name still too long is folded onto a second line
+    rather than cut."""
     from rich.table import Table
 
-    grid = Table(title=f"campaign {doc.get('name')} in {directory} (v_x in m/s)")
+    # Compact, the first column starts flush left: the longest names need that character.
+    grid = Table(title=f"campaign {doc.get('name')} in {directory} (v_x in m/s)",
+                 **_style(compact), pad_edge=not compact)
     for name in ("task", "kind", "state", "generation", "best v_x", "validation v_x"):
-        grid.add_column(name, justify="left" if name in ("task", "kind", "state") else "right",
-                        no_wrap=name == "task")
+        grid.add_column(name.replace(" ", "\n") if compact else name,
+                        justify="left" if name in ("task", "kind", "state") else "right",
+                        no_wrap=not compact or name != "task",
+                        overflow="fold" if name == "task" else "ellipsis")
+    experiment = None
     for info in infos:
-        generation = "-"
-        if info["generations"] is not None:
-            reached = "-" if info["generation"] is None else info["generation"]
-            generation = f"{reached}/{info['generations']}"
-        grid.add_row(info["id"], info["kind"], info["state"], generation, _fmt(info["best"]),
+        task = info["id"]
+        if compact:
+            group, task = info["id"].split("/", 1)
+            if group != experiment:
+                grid.add_row(f"{group}/", style="bold")
+                experiment = group
+        grid.add_row(task, info["kind"], info["state"], _generation(info), _fmt(info["best"]),
                      _fmt(info["validation"]))
     return grid
+
+
+def _generation(info: dict) -> str:
+    if info["generations"] is None:
+        return "-"
+    reached = "-" if info["generation"] is None else info["generation"]
+    return f"{reached}/{info['generations']}"
 
 
 _SHOWN = 12

@@ -87,8 +87,8 @@ DEFAULTS = {
 
 _SHARED = {
     "duration": ({"type": finite_float("duration"), "metavar": "S"}, "episode length [s]"),
-    "seed": ({"type": seed_int}, "random seed (sensor noise; for evolve, the whole run)"),
-    "preset": ({}, "paper or original-code (decisions.md, two presets)"),
+    "seed": ({"type": seed_int}, "random seed"),
+    "preset": ({}, "paper or original-code (docs/decisions.md, Presets)"),
     "shape": ({}, "biped, worm, WxH or rows like 1111/1001"),
     "sensors": ({}, "sensor preset: paper, none, area or all"),
     "validation": ({"type": int, "metavar": "N"}, "how many fixed validation terrains"),
@@ -134,18 +134,46 @@ def option(args: argparse.Namespace, name: str, saved: dict | None = None):
 def add_simulation_options(parser: argparse.ArgumentParser, layered: str = "") -> None:
     """``--duration``, ``--preset`` and ``--seed``: how a command simulates."""
     add_options(parser, "duration", "preset", layered=layered)
-    add_options(parser, "seed")
+    add_options(parser, "seed", notes={"seed": "it draws the sensor noise"})
 
 
-def simulation_config(args: argparse.Namespace, saved: dict | None = None):
+GENOME_RUN = "the genome's run's"
+"""The ``layered`` text of options that a genome's run (or reassembly) fills
+(:mod:`somite.experiments.origin`)."""
+
+
+def simulation_config(args: argparse.Namespace, origin=None):
     """The :class:`~somite.sim.config.SimConfig` of :func:`add_simulation_options`' options.
 
-    ``saved`` (a run's ``config.json``) fills the options not given, and its ``transient``.
+    ``origin`` (an :class:`~somite.experiments.origin.Origin`) fills the options not given,
+    and its ``transient``.
     """
     from ..sim.config import preset
 
-    saved = saved or {}
+    saved = origin.options() if origin is not None else {}
     options = {"duration": float(option(args, "duration", saved))}
-    if isinstance(saved.get("transient"), (int, float)):
-        options["transient"] = float(saved["transient"])
+    if "transient" in saved:
+        options["transient"] = saved["transient"]
     return preset(option(args, "preset", saved), **options)
+
+
+def settings_line(args: argparse.Namespace, config, origin=None, terrain: str = "") -> str:
+    """One line saying which settings a command simulates with, and where they came from."""
+    saved = origin.options() if origin is not None else {}
+    where = f"{terrain}, " if terrain else ""
+    start, end = config.measured_interval
+    text = (f"settings: {where}{config.duration:g} s (v_x over [{start:g} s, {end:g} s]), "
+            f"preset {option(args, 'preset', saved)}, seed {args.seed}")
+    if origin is not None and origin.source:
+        text += f"; from {origin.source} where not given"
+    return text
+
+
+def warn_whole_episode(prog: str, config) -> None:
+    """Warn when ``config`` (a SimConfig) measures v_x over the whole episode, start-up
+    included, because its duration is not longer than its transient."""
+    from ..sim.config import whole_episode_warning
+
+    message = whole_episode_warning(config)
+    if message:
+        warn(prog, message)

@@ -5,7 +5,12 @@ from __future__ import annotations
 import argparse
 
 from .._io import check_output_folder
-from ..experiments.discovery import format_compactness, write_discovery
+from ..experiments.discovery import (
+    format_compactness,
+    tie_note,
+    tied_with_best,
+    write_discovery,
+)
 from .common import add_options, load_genome
 
 HELP = "Find the most compact module of a genome (eq. 5) and partition its body around it."
@@ -21,9 +26,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     out = check_output_folder(args.out)
     genome = load_genome(args.genome)
+    # A b_max over the body's size is refused (b_max=13: the body has only 12 voxels), not
+    # capped: the sizes printed below are then always the ones enumerated.
     best, partition, ranked = write_discovery(out, genome, str(args.genome), args.b_min,
                                               args.b_max)
-    print(f"most compact module (c = {format_compactness(best.compactness)}): {list(best.voxels)}")
+    print(f"most compact module (c = {format_compactness(best.compactness)}"
+          f"{tie_note(tied_with_best(ranked))}): {list(best.voxels)}")
     print(f"partition {partition.grid_string()} ({len(partition.modules)} modules)")
-    print(f"-> {out / 'partition.json'}, {out / 'candidates.csv'} ({len(ranked)} candidates)")
+    print(f"-> {out / 'partition.json'}, {out / 'candidates.csv'} ({len(ranked)} candidates: "
+          f"every connected set of b_min={args.b_min} to b_max={args.b_max} voxels)")
     return 0

@@ -7,45 +7,66 @@ import argparse
 import numpy as np
 
 from ..errors import bad
+from ..experiments.origin import origin_of
 from ..sim.terrain import parse_terrain
 from ..tasks.validation import evaluate_outcomes, validation_terrains
 from ..tasks.velocity import mean_velocity
+from ._progress import note_compiling
 from .common import (
+    GENOME_RUN,
     NON_FINITE,
     add_options,
     add_simulation_options,
     load_genome,
+    option,
     print_json,
+    settings_line,
     simulation_config,
     warn,
+    warn_whole_episode,
 )
 
-HELP = "Evaluate a genome (file or run directory) on validation terrains; per-terrain v_x."
+HELP = ("Evaluate a genome (file or run directory) on its run's terrain or the validation "
+        "terrains; per-terrain v_x.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_options(parser, "genome", "validation",
-                notes={"validation": "used when no --terrain is given"})
+                notes={"validation": "used when no --terrain is given and the run did not "
+                       "train on one fixed terrain"})
     parser.add_argument("--terrain", action="append", dest="terrains",
-                        help="terrain name (repeatable); default: the validation terrains")
-    add_simulation_options(parser)
+                        help="terrain name (repeatable); default: the run's training terrain "
+                        "when it was one fixed terrain (e.g. flat), else the validation "
+                        "terrains")
+    add_simulation_options(parser, layered=GENOME_RUN)
     add_options(parser, "json")
 
 
 def run(args: argparse.Namespace) -> int:
     genome = load_genome(args.genome)
+    origin = origin_of(args.genome)
     if args.terrains:
         terrains = [parse_terrain(name) for name in args.terrains]
+        where = ", ".join(args.terrains)
+    elif origin.fixed_terrain() is not None:
+        terrains = [parse_terrain(origin.fixed_terrain())]
+        where = f"the run's terrain {origin.fixed_terrain()}"
     else:
         if args.validation < 1:
             raise bad("validation", args.validation, "must be at least 1")
         terrains = validation_terrains(args.validation)
-    config = simulation_config(args)
+        where = f"{len(terrains)} validation terrains"
+    config = simulation_config(args, origin)
+    settings = settings_line(args, config, origin, where)
+    note_compiling()
     outcomes = evaluate_outcomes([genome], terrains, config, args.seed)[0]
     velocities = np.array([o.velocity for o in outcomes])
     mean = mean_velocity(velocities)  # NaN when any terrain is (the one rule)
     report = {
         "genome": args.genome,
+        "settings": {"duration": config.duration, "transient": config.transient,
+                     "preset": option(args, "preset", origin.options()), "seed": args.seed,
+                     "from": origin.source or None},
         "terrains": {t.name: o.velocity for t, o in zip(terrains, outcomes)},
         "mean_velocity": None if np.isnan(mean) else mean,
         # Terrains whose episode had a non-finite step (v_x NaN, or a clamped actuation).
@@ -63,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(report)
     else:
+        print(settings)
         for t, o in zip(terrains, outcomes):
             print(f"{t.name:>22}: {o.velocity:8.4f} m/s   tilt {o.max_tilt_deg:5.1f} deg,"
                   f" on its side {o.flipped_fraction:6.1%}, area >= {o.min_signed_area_ratio:.2f},"
@@ -73,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
               f"{'  (non-finite on some terrain)' if report['non_finite'] else ''}")
     if report["non_finite"]:
         warn(args.prog, f"on {report['non_finite']} of {len(terrains)} terrains {NON_FINITE}")
+    warn_whole_episode(args.prog, config)  # last: a caveat on the result
     return 0
 
 

@@ -6,12 +6,15 @@ import argparse
 import math
 
 from ..errors import bad
+from ..evolution.config import GAConfig
 from ..evolution.ea import GraphEA
+from ..evolution.operators import OperatorConfig
 from ..experiments.config import RunConfig, load_toml, resolve
 from ..experiments.runner import RunDirectory, evolve
 from ..tasks.backends import check_backend
 from ..tasks.distributions import DISTRIBUTION_HELP
-from .common import NON_FINITE, add_options, finite_float
+from ._progress import note_compiling
+from .common import NON_FINITE, add_options, finite_float, warn_whole_episode
 
 HELP = "Evolve a graph controller with the paper's EA; writes logs, bests and checkpoints."
 
@@ -24,26 +27,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 _LAYERED = "the --config file's"
 
 
-def add_evolution_options(parser: argparse.ArgumentParser) -> None:
-    """The options shared by ``evolve`` and ``reoptimize``."""
+def add_evolution_options(parser: argparse.ArgumentParser,
+                          generations: int = RunConfig.generations) -> None:
+    """The options shared by ``evolve`` and ``reoptimize`` (``generations``: the default)."""
     parser.add_argument("--out", required=True, help="run directory")
     parser.add_argument("--config", help="TOML file with any of the options below")
     add_options(parser, "preset", layered=_LAYERED)
-    parser.add_argument("--generations", type=int)
-    parser.add_argument("--population", type=int)
-    add_options(parser, "seed", layered=_LAYERED)
+    parser.add_argument("--generations", type=int,
+                        help="generations after the initial population (default: the --config "
+                        f"file's, else {generations})")
+    parser.add_argument("--population", type=int,
+                        help="robots per generation (default: the --config file's, else "
+                        f"{GAConfig().population})")
+    add_options(parser, "seed", layered=_LAYERED,
+                notes={"seed": "seeds the whole run: variation, terrains and sensor noise"})
     parser.add_argument("--terrain", help=f"training terrains: {DISTRIBUTION_HELP}; "
                         "default hilly-1-10-rnd (a new terrain per evaluation)")
     add_options(parser, "duration", layered=_LAYERED)
     parser.add_argument("--evaluations", type=int, metavar="K",
-                        help="terrains per evaluation, fitness their mean v_x (1: the paper)")
+                        help="terrains per evaluation, fitness their mean v_x "
+                        "(default 1: the paper)")
     parser.add_argument("--validate-every", type=int, metavar="N",
                         help="log the best's mean v_x on the 10 validation terrains every N "
                         "generations and at the last (default 50; 0: never)")
-    parser.add_argument("--omega", type=finite_float("omega"), help="modularity bias (1 = none)")
+    parser.add_argument("--omega", type=finite_float("omega"),
+                        help=f"modularity bias (default {OperatorConfig().omega:g}: none)")
     parser.add_argument("--modules",
                         help="partition for omega: paper, worm-halves, biped-legs, a grid "
-                        "or a partition.json")
+                        "or a partition.json (default paper)")
     parser.add_argument("--weights-only", action="store_true", default=None,
                         help="the ablation: only weight mutation (p_mutate_edge 1, others 0)")
     parser.add_argument("--reevaluate-parents", action=argparse.BooleanOptionalAction,
@@ -51,7 +62,9 @@ def add_evolution_options(parser: argparse.ArgumentParser) -> None:
                         help="evaluate parents again every generation, on new terrains (the "
                         "default, as the authors' code; --no-reevaluate-parents: Algorithm 1 "
                         "as printed, each parent keeps its one evaluation)")
-    parser.add_argument("--checkpoint-every", type=int)
+    parser.add_argument("--checkpoint-every", type=int, metavar="N",
+                        help="generations between checkpoints (default: the --config file's, "
+                        f"else {RunConfig.checkpoint_every})")
     parser.add_argument("--resume", action="store_true",
                         help="continue from the last checkpoint (a run killed before its first "
                         "one starts again: the same run)")
@@ -69,15 +82,19 @@ def run(args: argparse.Namespace) -> int:
     backend = check_backend(args.backend)
     # Locked before the progress bar starts, so that a refusal is the only line printed.
     with RunDirectory(args.out).locked() as run_dir:
+        note_compiling(args.quiet, backend)
         with progress_bar(config.generations, args.quiet) as report:
             ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report,
                         backend=backend)
     summarise(ea, run_dir, args.quiet)
+    warn_whole_episode(args.prog, config.task().sim)  # last: a caveat on the result
     return 0
 
 
-def configuration(args: argparse.Namespace, **fixed) -> RunConfig:
-    """The run's configuration from TOML and options, or the saved one on ``--resume``."""
+def configuration(args: argparse.Namespace, defaults: dict | None = None, **fixed) -> RunConfig:
+    """The run's configuration from TOML and options, or the saved one on ``--resume``;
+    ``defaults`` (e.g. the settings of the genome a re-optimisation starts from) come before
+    the TOML file and the options."""
     cli = {k: getattr(args, k) for k in _OPTIONS if getattr(args, k, None) is not None}
     cli.update(fixed)
     run_dir = RunDirectory(args.out)
@@ -95,7 +112,7 @@ def configuration(args: argparse.Namespace, **fixed) -> RunConfig:
         config = resolve({**saved, **cli})
     else:
         options = load_toml(args.config) if args.config else {}
-        config = resolve({**options, **cli})
+        config = resolve({**(defaults or {}), **options, **cli})
     return config
 
 

@@ -6,6 +6,7 @@ import argparse
 
 from .._io import check_output_file, make_folder, write_atomic
 from ..errors import bad
+from ..experiments.origin import origin_of
 from ..modules.library import list_library, module_text, provenance_of
 from ..modules.module import cut
 from ..sim.partition import Partition
@@ -23,14 +24,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_genome(export, role="the donor")
     export.add_argument(
-        "--partition", default="paper",
-        help="a preset (paper, worm-halves, biped-legs), a grid of labels or a partition.json",
+        "--partition", default=None,
+        help="a preset (paper, worm-halves, biped-legs), a grid of labels or a partition.json "
+        "(default: the run's --modules partition when it had one, else paper)",
     )
     export.add_argument("--module", required=True, help="label of the module to export")
     export.add_argument("--out", required=True, help="module file to write (NAME.json)")
     export.add_argument(
         "--velocity", type=finite_float("velocity"), default=None,
-        help="the donor's v_x [m/s], recorded in the provenance",
+        help="the donor's v_x [m/s], recorded in the provenance (default: the run's last "
+        "validation velocity, when the donor is a run's genome)",
     )
     listing = actions.add_parser(
         "list", help="list the modules of a library folder",
@@ -51,11 +54,15 @@ def _export(args: argparse.Namespace) -> int:
     if not out.name.endswith(".json") or out.name == ".json":
         raise bad("out", args.out, "a module file is named NAME.json (NAME is its library name)")
     donor = load_genome(args.genome)
-    partition = Partition.parse(args.partition, donor.body.shape)
+    origin = origin_of(args.genome)
+    partition = Partition.parse(args.partition or origin.modules or "paper", donor.body.shape)
     module = cut(donor, partition).module(args.module)
-    provenance = provenance_of(
-        module, donor, partition.grid_string(), str(args.genome), args.velocity
-    )
+    velocity = args.velocity if args.velocity is not None else origin.validation_velocity
+    provenance = provenance_of(module, donor, partition.grid_string(), str(args.genome), velocity)
+    if origin.source:
+        given = " (given)" if args.velocity is not None else " (its last validation)"
+        print(f"from {origin.source}: partition {partition.grid_string()}, v_x "
+              + ("not recorded" if velocity is None else f"{velocity:.3f} m/s{given}"))
     text = module_text(module, provenance)
     make_folder(out.parent)
     write_atomic(out, text)

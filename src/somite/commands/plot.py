@@ -5,8 +5,10 @@ from __future__ import annotations
 import argparse
 import json
 
+from ..analysis.stats import smallest_p
 from ..viz.output import check_output
 from ..viz.plots import KINDS, PLOT_FORMATS, plot_runs, stats_path
+from .common import warn
 
 HELP = "Plot best v_x and |G| over generations and final-v_x boxplots with Mann-Whitney p."
 
@@ -17,7 +19,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "statistics go beside it as fig.stats.json")
     parser.add_argument("--group-by", default="shape",
                         help="config.json key(s), comma-separated: shape, omega, weights_only, ...")
-    parser.add_argument("--kind", default="both", choices=KINDS)
+    parser.add_argument("--kind", default="both", choices=KINDS,
+                        help="learning curves, box plots of the final bests, or both")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -32,4 +35,19 @@ def run(args: argparse.Namespace) -> int:
     for test in stats["tests"]:
         p = "n/a" if test["p"] is None else f"{test['p']:.4g}"
         print(f"  {test['a']} vs {test['b']}: Mann-Whitney U = {test['u']}, p = {p}")
+        if test["caveat"]:
+            warn(args.prog, small_groups(test))
+    whole = stats["whole_episode_runs"]
+    if whole:
+        total = sum(group["n"] for group in stats["groups"].values())
+        warn(args.prog, f"{len(whole)} of {total} runs had a duration no longer than their "
+             f"transient, so v_x is over the whole episode, start-up included (first: {whole[0]})")
     return 0
+
+
+def small_groups(test: dict) -> str:
+    """The warning beside the p-value of groups too small for it (a test of stats.json)."""
+    p = "n/a" if test["p"] is None else f"{test['p']:.4g}"
+    return (f"{test['a']} vs {test['b']}: p = {p} from {test['n_a']} and "
+            f"{test['n_b']} runs ({test['caveat']}; no data could give a p below "
+            f"{smallest_p(test['n_a'], test['n_b']):.3g} with so few)")

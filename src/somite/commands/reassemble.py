@@ -13,13 +13,20 @@ from pathlib import Path
 
 from .._io import check_output_folder
 from ..errors import bad
+from ..experiments.origin import origin_of
 from ..experiments.reassembly import write_reassembly
+from ..modules.transfer import RHO_FLOOR
+from ._progress import note_compiling
 from .common import (
     add_genome,
     add_options,
     add_simulation_options,
     load_genome,
+    option,
+    settings_line,
     simulation_config,
+    warn,
+    warn_whole_episode,
 )
 
 HELP = "Reassemble a robot from modules of two donor genomes; report eta, v_x and rho."
@@ -49,25 +56,35 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="receiver module <- donor module, e.g. torso=DONOR2:front,left-leg=DONOR1:left-leg",
     )
     add_options(parser, "validation", notes={"validation": "v_x and rho on them; 0: none"})
-    add_simulation_options(parser)
+    add_simulation_options(parser, layered="donor 1's run's")
     parser.add_argument("--draw", action="store_true", help="draw the brain on the body")
 
 
 def run(args: argparse.Namespace) -> int:
-    out = _check_out(args.out)
+    out = check_output_folder(args.out)
     if args.validation < 0:
         raise bad("validation", args.validation, "must be 0 or more")
     if args.validation:
         from ..tasks.validation import check_count
 
         check_count(args.validation)
-    config = simulation_config(args)
     genomes = (load_genome(args.donor1), load_genome(args.donor2))
+    origin = origin_of(args.donor1)
+    config = simulation_config(args, origin)
+    preset = option(args, "preset", origin.options())
+    other = origin_of(args.donor2)
+    if other.source and other.options() != origin.options():
+        warn(args.prog, f"donor 2's {other.source} ran with other settings "
+             f"({_settings(other)}) than donor 1's ({_settings(origin) or 'none saved'}); "
+             "both donors and the new robot are measured with donor 1's")
+    if args.validation:
+        print(settings_line(args, config, origin, f"{args.validation} validation terrains"))
+    note_compiling()
     result, report = write_reassembly(
         out, genomes, (args.donor1, args.donor2), args.partition, config,
         receiver_shape=args.receiver_shape, receiver_sensors=args.receiver_sensors,
         receiver_partition=args.receiver_partition, take=args.take,
-        validation=args.validation, seed=args.seed, preset=args.preset, draw=args.draw,
+        validation=args.validation, seed=args.seed, preset=preset, draw=args.draw,
     )
     if args.draw:
         from ..viz.brain import draw_brain
@@ -76,25 +93,25 @@ def run(args: argparse.Namespace) -> int:
     _print_summary(report, out)
     if args.draw:
         print(f"  drawing -> {out / 'reassembled.png'}")
+    if "validation" in report:
+        _warn_weak_rho(args.prog, report["validation"])
+    warn_whole_episode(args.prog, config)  # last: a caveat on the result
     return 0
 
 
-def _check_out(text: str) -> Path:
-    return check_output_folder(text)
+def _settings(origin) -> str:
+    return ", ".join(f"{key} {value:g}" if isinstance(value, float) else f"{key} {value}"
+                     for key, value in origin.options().items())
 
 
-def _drawer():
-    """``somite.viz.brain.draw_brain`` if it exists (it is optional here), else None."""
-    try:
-        from ..viz.brain import draw_brain
-    except ImportError:
-        return None
-    return draw_brain
-
-
-def _draw(draw_brain, result, path: Path) -> None:
-    # draw_brain writes its file atomically itself.
-    draw_brain(result.genome, path, partition=result.partition)
+def _warn_weak_rho(prog: str, validation: dict) -> None:
+    donors = [validation.get("v_donor1"), validation.get("v_donor2")]
+    if None in donors:
+        return
+    mean = (donors[0] + donors[1]) / 2
+    if abs(mean) < RHO_FLOOR:
+        warn(prog, f"the donors' mean v_x is {mean:.3f} m/s, below {RHO_FLOOR:g} m/s: rho "
+             "divides by it and means little (the donors hardly walk)")
 
 
 def _print_summary(report: dict, out: Path) -> None:

@@ -5,12 +5,15 @@ from __future__ import annotations
 import argparse
 import math
 
+from ..experiments.origin import origin_of
 from ..experiments.reoptimize import reoptimize
 from ..experiments.runner import RunDirectory
+from ..modules.transfer import RHO_FLOOR
 from ..tasks.backends import check_backend
 from ..tasks.validation import check_count
 from ..tasks.velocity import mean_velocity
-from .common import add_genome, add_options, load_genome
+from ._progress import note_compiling
+from .common import add_genome, add_options, load_genome, warn, warn_whole_episode
 from .evolve import add_evolution_options, configuration, progress_bar, summarise
 
 HELP = ("Re-optimise a genome with the EA from it and its mutants (510 generations in the "
@@ -22,8 +25,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--donors", nargs="+", default=(),
                         help="donor genomes: rho = v_x / mean v_x of the donors")
     add_options(parser, "validation", notes={"validation": "rho is measured on them"})
-    add_evolution_options(parser)
-    parser.set_defaults(generations=510)
+    add_evolution_options(parser, generations=REOPTIMIZE_GENERATIONS)
+    parser.set_defaults(generations=REOPTIMIZE_GENERATIONS)
+
+
+REOPTIMIZE_GENERATIONS = 510
+"""The paper's re-optimisation length (section 6)."""
 
 
 def run(args: argparse.Namespace) -> int:
@@ -31,10 +38,18 @@ def run(args: argparse.Namespace) -> int:
     genome = load_genome(args.genome)
     donors = [load_genome(path) for path in args.donors]
     shape = genome.body.shape.grid_string()
-    config = configuration(args, shape=shape, start=str(args.genome))
+    origin = origin_of(args.genome)
+    inherited = {**origin.options(), **({"terrain": origin.terrain} if origin.terrain else {})}
+    config = configuration(args, defaults=inherited, shape=shape, start=str(args.genome))
     backend = check_backend(args.backend)
-    # Locked before the progress bar starts, so that a refusal is the only line printed.
+    # Locked before anything is printed, so that a refusal is the only line.
     with RunDirectory(args.out).locked() as run_dir:
+        if not args.quiet:
+            print(f"settings: training on {config.terrain}, {config.duration:g} s (v_x over "
+                  f"[{config.transient:g} s, {config.duration:g} s]), preset {config.preset}, "
+                  f"rho on {args.validation} validation terrains"
+                  + (f"; from {origin.source} where not given" if origin.source else ""))
+        note_compiling(args.quiet, backend)
         with progress_bar(config.generations, args.quiet) as report:
             ea, rows, velocities = reoptimize(config, run_dir, genome, donors,
                                               args.validation, resume=args.resume,
@@ -45,4 +60,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet and donors:
         print(f"rho: {rows[0]['rho']:.3f} at the start, {rows[-1]['rho']:.3f} at the end "
               f"(donors {donors_mean:.3f} m/s on {args.validation} validation terrains)")
+    if donors and abs(donors_mean) < RHO_FLOOR:
+        warn(args.prog, f"the donors' mean v_x is {donors_mean:.3f} m/s, below "
+             f"{RHO_FLOOR:g} m/s: rho divides by it and means little")
+    warn_whole_episode(args.prog, config.task().sim)  # last: a caveat on the result
     return 0

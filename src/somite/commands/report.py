@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from .common import add_options
+from ._progress import stages
+from .common import add_options, warn
 
 HELP = ("Report a campaign directory: the paper's Table 1 and Figures 3, 5, 7-12 beside the "
         "paper's numbers, validation re-runs, time-lapses (index.md, report.json, figures/).")
@@ -23,8 +24,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..report.build import build_report
 
-    report = build_report(args.campaign, args.out, args.validation,
-                          timelapse=not args.no_timelapse)
+    with stages(args.quiet) as stage:
+        report = build_report(args.campaign, args.out, args.validation,
+                              timelapse=not args.no_timelapse, stage=stage)
     if not args.quiet:
         status = report["status"]["experiments"]
         done = sum(s["done"] for s in status.values())
@@ -33,4 +35,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"wrote {args.out}/index.md and report.json: {done} of {total} tasks finished; "
               f"{cache['genomes_simulated']} bests re-run on the validation terrains, "
               f"{cache['strips_drawn']} time-lapses drawn (the rest from the cache)")
+    # The banner of index.md, also with --quiet: a caveat on the result, not progress.
+    for text in report["caveats"]["banner"]:
+        warn(args.prog, text)
     return 0

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
-from .._io import read_json
 from ..errors import bad
+from ..experiments.origin import origin_of
 from ..limits import MAX_FRAMES, at_most
 from ..sim.config import CONTROL_HZ
 from ..sim.terrain import TERRAIN_HELP
@@ -23,20 +22,29 @@ from ..viz.video import (
     record_episode,
     write_episode,
 )
+from ._progress import note_compiling, rendering
 from .common import (
+    GENOME_RUN,
     add_options,
     add_simulation_options,
     finite_float,
     load_genome,
+    settings_line,
     simulation_config,
+    warn_whole_episode,
 )
+
+DEFAULT_TERRAIN = "hilly-1-10-0"
+"""Where a robot is shown when neither ``--terrain`` nor a fixed training terrain says."""
 
 HELP = "Simulate a genome (file or run directory) and write an MP4/GIF video or a PNG strip."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--terrain", default="hilly-1-10-0", help=TERRAIN_HELP)
-    add_simulation_options(parser, layered="the run's")
+    parser.add_argument("--terrain", default=None,
+                        help=f"{TERRAIN_HELP} (default: the run's training terrain when it was "
+                        f"one fixed terrain, else {DEFAULT_TERRAIN})")
+    add_simulation_options(parser, layered=GENOME_RUN)
     parser.add_argument("--out", default=None,
                         help="walk.mp4 or walk.gif (video), strip.png (time-lapse); "
                         "default walk.mp4, or strip.png with --frames")
@@ -66,26 +74,23 @@ def run(args: argparse.Namespace) -> int:
     frame_size(args.width, args.height, TILE_SIZE if out.suffix.lower() in STRIP_FORMATS
                else VIDEO_SIZE)
     genome = load_genome(args.genome)
-    config = simulation_config(args, _run_config(args.genome))
-    recording = record_episode(genome.body, genome, args.terrain, config, args.seed)
+    origin = origin_of(args.genome)
+    terrain = args.terrain or origin.fixed_terrain() or DEFAULT_TERRAIN
+    config = simulation_config(args, origin)
+    print(settings_line(args, config, origin, terrain))
+    note_compiling()
+    recording = record_episode(genome.body, genome, terrain, config, args.seed)
     if not recording.complete:
         stop = recording.n_steps / CONTROL_HZ
         print(f"somite show: note: the simulation went non-finite after t = {stop:.2f} s; "
               "the output stops there", file=sys.stderr)
-    write_episode(recording, out, args.fps, args.width, args.height,
-                  genome if args.brain else None, args.frames)
+    with rendering(f"drawing {out.name}") as progress:
+        write_episode(recording, out, args.fps, args.width, args.height,
+                      genome if args.brain else None, args.frames, progress)
     start = config.transient_steps / CONTROL_HZ
     print(f"wrote {out}: {genome.body.shape.grid_string()} on {recording.terrain.name}, "
           f"{config.duration:g} s, v_x = {recording.velocity:.3f} m/s "
           f"(over [{start:g} s, {config.duration:g} s])")
+    warn_whole_episode(args.prog, config)  # last: a caveat on the result
     return 0
-
-
-def _run_config(target: str) -> dict:
-    """The run's config.json when ``target`` is a run directory, else nothing."""
-    path = Path(target) / "config.json"
-    if not path.is_file():
-        return {}
-    data = read_json(path, "config")
-    return data if isinstance(data, dict) else {}
 

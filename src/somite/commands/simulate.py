@@ -4,44 +4,69 @@ from __future__ import annotations
 
 import argparse
 
+from ..brain.compile import compile_genome
 from ..brain.controllers import parse_controller
+from ..errors import bad
+from ..experiments.origin import origin_of
 from ..sim.body import Body
 from ..sim.terrain import TERRAIN_HELP, parse_terrain
 from ..tasks.backends import check_backend
 from ..tasks.locomotion import simulate
+from ._progress import note_compiling
 from .common import (
+    GENOME_RUN,
     NON_FINITE,
     add_options,
     add_simulation_options,
+    load_genome,
+    option,
     print_json,
+    settings_line,
     simulation_config,
     warn,
+    warn_whole_episode,
 )
 
 HELP = "Simulate one robot and print how it went (v_x over [5 s, end], distance, ...)."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    add_options(parser, "shape", "sensors")
+    add_options(parser, "shape", "sensors", layered="--genome's")
     parser.add_argument("--terrain", default="flat", help=TERRAIN_HELP)
     parser.add_argument(
-        "--controller", default="sine", help="zero, or sine:freq=F,amp=A,phase=P (1, 1, -1)"
+        "--controller", default=None,
+        help="zero, or sine:freq=F,amp=A,phase=P (1, 1, -1) (default: --genome's, else sine)",
     )
-    add_simulation_options(parser)
+    parser.add_argument("--genome", default=None,
+                        help="simulate this genome (a genome JSON or a run directory): its body "
+                        "and controller, and its run's duration and preset unless given")
+    add_simulation_options(parser, layered=GENOME_RUN)
     add_options(parser, "backend", "json")
 
 
 def run(args: argparse.Namespace) -> int:
-    body = Body.build(args.shape, args.sensors)
+    origin = None
+    if args.genome is not None:
+        for name in ("shape", "sensors", "controller"):
+            if getattr(args, name) is not None:
+                raise bad(name, getattr(args, name), "a --genome brings its own; drop one")
+        genome = load_genome(args.genome)
+        origin = origin_of(args.genome)
+        body, controller = genome.body, compile_genome(genome)
+    else:
+        body = Body.build(option(args, "shape"), option(args, "sensors"))
+        controller = parse_controller(args.controller or "sine")
     terrain = parse_terrain(args.terrain)
-    controller = parse_controller(args.controller)
-    config = simulation_config(args)
+    config = simulation_config(args, origin)
+    if not args.json and origin is not None and origin.source:
+        print(settings_line(args, config, origin, terrain.name))
+    note_compiling()
     [outcome], _ = simulate([body], [terrain], [controller], config, seeds=args.seed,
                             backend=check_backend(args.backend))
     report = {
         "shape": body.shape.grid_string(),
         "terrain": terrain.name,
-        "controller": args.controller,
+        "controller": args.genome if args.genome is not None else args.controller or "sine",
         "duration": config.duration,
         "seed": args.seed,
         **outcome.to_dict(),
@@ -57,4 +82,5 @@ def run(args: argparse.Namespace) -> int:
             print(f"{key:>21}: {value}")
     if outcome.non_finite:
         warn(args.prog, f"at {outcome.non_finite} control steps {NON_FINITE}")
+    warn_whole_episode(args.prog, config)  # last: a caveat on the result
     return 0 if outcome.finite else 1

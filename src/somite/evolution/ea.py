@@ -1,4 +1,4 @@
-"""The paper's evolutionary algorithm (Algorithm 1; original-system.md section 5), ask/tell.
+"""The paper's evolutionary algorithm (Algorithm 1; docs/original-system.md section 5), ask/tell.
 
 Per generation: n_pop offspring, each a mutation of a parent chosen by tournament (size 5,
 drawn with replacement); offspring evaluated each on its own fresh random terrain; with

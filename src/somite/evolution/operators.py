@@ -1,4 +1,7 @@
-"""Initialisation and mutation of graph genomes (original-system.md sections 4.3, 5.3 and 6.2).
+"""Initialisation and mutation of graph genomes.
+
+The authors' versions are in docs/original-system.md sections 4.3, 5.3 and 6.2; where somite
+differs, docs/decisions.md, "The evolutionary algorithm".
 
 Every operator takes a genome and a ``numpy.random.Generator`` and returns a new genome; one
 that cannot act (no edge, no hidden node, no candidate pair) returns an unchanged copy, as the

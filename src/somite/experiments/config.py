@@ -114,8 +114,8 @@ RUN_PRESETS: dict[str, dict] = {
     "original-code": {"preset": "original-code", "reevaluate_parents": True,
                       "node_placement": "uniform", "seeded_mutants": "population"},
 }
-"""The run half of each preset (decisions.md), plain data; ``preset`` also picks the
-simulator's half (:data:`somite.sim.config.PRESETS`)."""
+"""The run half of each preset (docs/decisions.md, "Presets"), plain data; ``preset`` also
+picks the simulator's half (:data:`somite.sim.config.PRESETS`)."""
 
 
 def option_names() -> set[str]:

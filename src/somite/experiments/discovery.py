@@ -1,11 +1,13 @@
 """A module discovery into a folder: what ``somite discover`` writes, for the command and
 campaigns: ``partition.json`` (the body partitioned around its most compact module, paper eq. 5,
-with every module's score) and ``candidates.csv`` (every candidate, ranked)."""
+with every module's score and ``tied_with_best``, how many other candidates share its
+compactness) and ``candidates.csv`` (every candidate, ranked)."""
 
 from __future__ import annotations
 
 import csv
 import io
+import itertools
 from pathlib import Path
 
 from .._io import make_folder, write_atomic
@@ -27,6 +29,7 @@ def write_discovery(out: Path, genome: Genome, name: str, b_min: int = 2, b_max:
         b_min=b_min,
         b_max=b_max,
         n_candidates=len(ranked),
+        tied_with_best=tied_with_best(ranked),
         best={"label": "A", **best.to_dict()},
         scores={
             label: _module_score(genome, partition, label) for label in partition.modules
@@ -34,6 +37,23 @@ def write_discovery(out: Path, genome: Genome, name: str, b_min: int = 2, b_max:
     )
     write_atomic(out / "candidates.csv", _csv(ranked))
     return best, partition, ranked
+
+
+def tied_with_best(ranked) -> int:
+    """How many other candidates share the best's compactness (exactly, as the ranking
+    compares it; every set with nothing inside ties at 0), so that only the ranking's later
+    tie-breaks (larger inside, smaller, lowest) chose the best among them."""
+    key = ranked[0].rank_key()[:2]
+    # Ranked best first: the tied candidates are the ones right after it.
+    return sum(1 for _ in itertools.takewhile(lambda c: c.rank_key()[:2] == key, ranked[1:]))
+
+
+def tie_note(tied: int) -> str:
+    """What ``somite discover`` says beside the best's compactness when others share it."""
+    if not tied:
+        return ""
+    others = "1 other candidate" if tied == 1 else f"{tied} other candidates"
+    return f", tied with {others}; the first in candidates.csv order is taken"
 
 
 def _module_score(genome: Genome, partition, label: str) -> dict:

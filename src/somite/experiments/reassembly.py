@@ -76,7 +76,8 @@ def _validation(count, seed, preset, reassembled, donors, config) -> dict:
     terrains = validation_terrains(count)
     measured = transferability(reassembled, *donors, terrains, config, seed)
     return {
-        "n_terrains": count, "duration": config.duration, "preset": preset,
+        "n_terrains": count, "duration": config.duration, "transient": config.transient,
+        "preset": preset,
         "seed": seed, **measured.to_dict(),
     }
 

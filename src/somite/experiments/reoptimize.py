@@ -1,10 +1,10 @@
 """Re-optimisation of a reassembled robot and its transferability over generations.
 
-The paper (section 6) re-evolves a reassembled genome G' with the same EA, starting from G'
-and mutants of it, for 510 generations, and plots rho = v_x(best) / mean(v_x(donors)) along the
-way (Figures 7, 8). Here every velocity in rho is measured on the same fixed validation terrains
-(decisions.md), and the best of each generation is evaluated once per distinct genome. Means and
-rho follow :mod:`somite.tasks.velocity` (NaN on any terrain: NaN).
+The paper (section 6) re-evolves a reassembled genome G' with the same EA, starting from G' and
+mutants of it, for 510 generations, and plots rho = v_x(best) / mean(v_x(donors)) along the way
+(Figures 7, 8). Here every velocity in rho is measured on the same fixed validation terrains
+(docs/decisions.md, "Transferability"), and the best of each generation is evaluated once per
+distinct genome. Means and rho follow :mod:`somite.tasks.velocity` (NaN on any terrain: NaN).
 """
 
 from __future__ import annotations

@@ -1,9 +1,9 @@
 """Automatic module discovery by module compactness (paper section 5.3, eq. 5).
 
-Candidates are **all** 4-connected voxel sets whose size is in [b_min, b_max] (decisions.md: the
-authors' partial enumeration, original-system.md section 7, is a bug we do not copy). A candidate
-B' is scored with the edges of the controller, each weighing |w| + |b| and located by the voxels
-of its two end nodes:
+Candidates are **all** 4-connected voxel sets whose size is in [b_min, b_max] (docs/decisions.md,
+"Module discovery": the authors' partial enumeration, docs/original-system.md section 7, is a bug we
+do not copy). A candidate B' is scored with the edges of the controller, each weighing |w| + |b| and
+located by the voxels of its two end nodes:
 
 - inside = total weight of the edges with both end voxels in B' (an edge within one voxel is
   inside when that voxel is in B');

@@ -3,8 +3,8 @@
 :func:`graft` is the one step that both reassembly (:mod:`somite.modules.reassembly`) and the
 module library (:mod:`somite.modules.library`) use.
 
-Mapping a module onto a receiver module (decisions.md; original-system.md section 6.3 says the
-authors' code is ill-defined for different shapes):
+Mapping a module onto a receiver module (docs/decisions.md, "Reassembly"; docs/original-system.md
+section 6.3 says the authors' code is ill-defined for different shapes):
 
 - the bounding boxes of the two modules are aligned at their bottom-left corner, and a receiver
   voxel takes the donor voxel at the same relative position; donor voxels that fall outside the

@@ -1,15 +1,16 @@
 """Modules as data: the module record, and cutting a controller along a partition.
 
 A module is a 4-connected set of voxels of a body, the controller nodes located in them and the
-edges with both ends inside (decisions.md, "Modules"; paper section 5.2.1). Disassembly
+edges with both ends inside (docs/decisions.md, "Modules"; paper section 5.2.1). Disassembly
 (:func:`cut`) keeps only those edges: every edge whose two ends lie in different modules is
 dropped. Putting modules into a body is :mod:`somite.modules.graft`; building a robot from the
 modules of donors is :mod:`somite.modules.reassembly`.
 
-Cut ratios (paper section 5.2.2, original-system.md section 6.5): per module, eta_num is the
-share of the edges touching the module (at least one end inside) that cross its boundary (exactly
-one end inside), and eta_weight the same share of sum(|w| + |b|). Pooled over donors (the
-authors' ``CountCuts``), eta_num is all crossing edges of the donors over all their edges.
+Cut ratios (paper section 5.2.2, docs/original-system.md section 6.5; docs/decisions.md, "Cut
+ratios"): per module, eta_num is the share of the edges touching the module (at least one end
+inside) that cross its boundary (exactly one end inside), and eta_weight the same share of
+sum(|w| + |b|). Pooled over donors (the authors' ``CountCuts``), eta_num is all crossing edges of
+the donors over all their edges.
 """
 
 from __future__ import annotations

@@ -3,8 +3,9 @@
 Reassembly (:func:`reassemble`) cuts each donor along its partition
 (:func:`~somite.modules.module.cut`) and puts the chosen modules, possibly of different donors
 and shapes, into the receiver body with :func:`~somite.modules.graft.graft`, adding no edge
-between modules (decisions.md, "Modules"; paper section 5.2.1). A donor module is placed with
-its bounding-box corner on the receiver module's (decisions.md; original-system.md section 6.3).
+between modules (docs/decisions.md, "Modules"; paper section 5.2.1). A donor module is placed
+with its bounding-box corner on the receiver module's (docs/decisions.md, "Reassembly";
+docs/original-system.md section 6.3).
 
 The paper's homogeneous reassembly (section 5.2.2) is the default of :func:`receiver_for` and
 :func:`paper_takes`: the receiver is donor 1's body and partition, and donor 1 gives every module
@@ -273,7 +274,8 @@ def _takes(partition: Partition, parts: Mapping) -> tuple[Take, ...]:
 
 
 def _corner_offset(donor: Sequence[Voxel], receiver: Sequence[Voxel]) -> Voxel:
-    """Translation that puts the donor's bounding-box corner on the receiver's (decisions.md)."""
+    """Translation that puts the donor's bounding-box corner on the receiver's
+    (docs/decisions.md, "Reassembly")."""
     return (
         min(x for x, _ in receiver) - min(x for x, _ in donor),
         min(y for _, y in receiver) - min(y for _, y in donor),

@@ -1,8 +1,8 @@
 """Transferability of a reassembled robot (paper eq. 4).
 
 rho = v(reassembled) / mean(v(donor 1), v(donor 2)), every v the mean v_x over the same fixed
-validation terrains (decisions.md); the means and rho are :mod:`somite.tasks.velocity`'s, with
-its one NaN rule (NaN on any terrain: NaN).
+validation terrains (docs/decisions.md, "Transferability"); the means and rho are
+:mod:`somite.tasks.velocity`'s, with its one NaN rule (NaN on any terrain: NaN).
 """
 
 from __future__ import annotations
@@ -13,6 +13,10 @@ from ..brain.genome import Genome
 from ..tasks.velocity import mean_velocity, rho
 from .module import _finite_or_none
 
+RHO_FLOOR = 0.1
+"""[m/s] Below this mean donor v_x, rho is flagged as meaning little: it divides by a speed
+that is noise (a still robot drifts up to ~0.005 m/s, a random initial controller moves ~0.01),
+so donors at 0.02 m/s turn a reassembled robot's 1 m/s into rho = 50."""
 
 @dataclass(frozen=True)
 class Transferability:

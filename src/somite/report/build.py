@@ -17,6 +17,7 @@ from ..tasks.validation import check_count
 from ..viz import report_figures as figures
 from . import evolution, paper, reassembly
 from .campaign import read_campaign
+from .caveats import caveats
 from .discovery import discovery_rows, discovery_summary
 from .load import load, shape_name
 from .markdown import render_html, render_markdown
@@ -28,14 +29,18 @@ VERSION = 1
 
 
 def build_report(campaign_dir: str | Path, out: str | Path, validation: int = 10,
-                 timelapse: bool = True) -> dict:
-    """Write the report of ``campaign_dir`` into ``out``; returns report.json's data."""
+                 timelapse: bool = True, stage=None) -> dict:
+    """Write the report of ``campaign_dir`` into ``out``; returns report.json's data.
+    ``stage(text)``, when given, is told what is being done (it takes seconds to minutes)."""
+    stage = stage or (lambda text: None)
     check_count(validation)
     out = check_output_folder(out)
+    stage("reading the campaign")
     campaign = read_campaign(campaign_dir)
     loaded = load(campaign)
     folder = out / "figures"
     folder.mkdir(parents=True, exist_ok=True)
+    stage(f"re-running the final bests on {validation} validation terrains")
     reruns, simulated = rerun_finals(loaded.runs, loaded.bests, validation,
                                      out / "cache" / "validation.json")
     rows = _validation_rows(campaign, loaded, reruns)
@@ -43,18 +48,22 @@ def build_report(campaign_dir: str | Path, out: str | Path, validation: int = 10
         "format": FORMAT, "version": VERSION,
         "campaign": {"name": campaign.name, "source": campaign.source,
                      "directory": str(campaign.root), "experiments": campaign.experiments},
+        "caveats": None,  # filled last, from the numbers below; kept first in report.json
         "status": {"experiments": campaign.status(loaded.broken), "unreadable": loaded.broken},
         "table1": evolution.table1(campaign, loaded, reruns),
     }
+    stage("drawing the figures")
     report.update(_evolution_figures(campaign, loaded, reruns, folder))
     report.update(_reassembly_figures(campaign, loaded, folder))
     report["discovery"] = _discovery(campaign, loaded, folder)
     report["validation"] = _validation(rows, validation, folder)
+    stage("drawing the time-lapses")
     strips, drawn = draw_strips(rows, loaded, folder, out / "cache" / "timelapse.json") \
         if timelapse else ([], 0)
     report["timelapse"] = strips
     report["cache"] = {"genomes_simulated": simulated, "strips_drawn": drawn}
     report["paper"] = paper.everything()
+    report["caveats"] = caveats(campaign, loaded.runs, report)
     write_atomic(out / "report.json", to_json(report))
     text = render_markdown(report)
     write_atomic(out / "index.md", text)

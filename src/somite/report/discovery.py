@@ -35,6 +35,8 @@ def discovery_rows(campaign: Campaign, loaded: Loaded) -> list[dict]:
                 "best_voxels": [list(v) for v in voxels],
                 "best_size": len(voxels),
                 "compactness": found["best"].get("compactness"),
+                # Older partition files lack it: None, shown as nothing.
+                "tied_with_best": found.get("tied_with_best"),
                 "spans_front_to_rear": bool({min(columns), max(columns)}
                                             <= {x for x, _ in voxels}),
                 "b_min": found.get("b_min"), "b_max": found.get("b_max"),

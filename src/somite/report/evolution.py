@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..analysis.stats import RunLog, describe, pairwise_mann_whitney
+from ..analysis.stats import RunLog, describe, pairwise_mann_whitney, small_sample_caveat
 from ..viz.plots import curve
 from . import paper
 from .campaign import Campaign, Task
@@ -126,15 +126,14 @@ def curves(found: Groups) -> dict:
 
 def compare(samples: dict[str, list[float]], ids: dict[str, list[str]] | None = None) -> dict:
     """Per group its values (NaN dropped) and summary, and a two-sided Mann-Whitney U test
-    for every pair of groups."""
+    for every pair of groups (with its ``caveat`` where a group is too small)."""
     clean = {k: [float(v) for v in values if np.isfinite(v)] for k, values in samples.items()}
     groups_out = {}
     for label, values in clean.items():
         groups_out[label] = {"values": values, **describe(values)}
         if ids is not None:
             groups_out[label]["tasks"] = ids[label]
-    tests = [{"test": "mann-whitney-u, two-sided", **t._asdict()}
-             for t in pairwise_mann_whitney(clean)]
+    tests = [t.to_dict() for t in pairwise_mann_whitney(clean)]
     return {"groups": groups_out, "tests": tests}
 
 
@@ -159,9 +158,11 @@ def one_sided(comparison: dict, a: str, b: str) -> dict | None:
         return None
     from scipy.stats import mannwhitneyu
 
+    n_a, n_b = len(groups[a]["values"]), len(groups[b]["values"])
     result = mannwhitneyu(groups[a]["values"], groups[b]["values"], alternative="greater")
-    return {"test": "mann-whitney-u, one-sided (a > b)", "a": a, "b": b,
-            "u": float(result.statistic), "p": float(result.pvalue)}
+    return {"test": "mann-whitney-u, one-sided (a > b)", "a": a, "b": b, "n_a": n_a,
+            "n_b": n_b, "u": float(result.statistic), "p": float(result.pvalue),
+            "caveat": small_sample_caveat(n_a, n_b)}
 
 
 __all__ = ["FIGURE10", "FIGURE3", "FIGURE5", "compare", "curves", "final_comparison", "groups",

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+from ..analysis.stats import MIN_GROUP_SIZE
 from . import paper
 
 FIGURES = "figures"
@@ -49,8 +50,14 @@ def _claim(reported: dict) -> str:
     return f"Paper ({reported['where']}): {reported['text']}."
 
 
+def _p_noted(test: dict) -> str:
+    """A test's p-value, with its caveat beside it where its groups are too small."""
+    caveat = test.get("caveat")
+    return f"{_p(test['p'])} ({caveat})" if caveat else _p(test["p"])
+
+
 def _tests(comparison: dict, label: str) -> list[list]:
-    return [[label, f"{t['a']} vs {t['b']}", t["n_a"], t["n_b"], _n(t["u"], 1), _p(t["p"])]
+    return [[label, f"{t['a']} vs {t['b']}", t["n_a"], t["n_b"], _n(t["u"], 1), _p_noted(t)]
             for t in comparison["tests"]]
 
 
@@ -66,15 +73,24 @@ def _head(report: dict) -> list[str]:
     c = report["campaign"]
     return [
         f"# Campaign report: {c['name']}", "",
+        *_banner(report),
         f"Campaign `{c['directory']}` ({c['source'] or 'no source recorded'}), written by "
         "`somite report`. Every number below is also in `report.json`; figures are in "
         "`figures/` as PNG and SVG. Medians and standard deviations (ddof 0) are across runs; "
-        "p-values are two-sided Mann-Whitney U tests (scipy). The paper's numbers "
+        "p-values are two-sided Mann-Whitney U tests (scipy); a p-value of a group of fewer "
+        f"than {MIN_GROUP_SIZE} runs is marked *not meaningful* (with 2 and 2 no data can give "
+        "a two-sided p below 1/3). The paper's numbers "
         "(Pigozzi & Medvet) stand beside ours, with where they come from.", "",
         "A run's logged best v_x is its luckiest terrain draw: each table also gives the same "
         f"robots' mean v_x on the {report['validation']['terrains']} fixed validation terrains "
         "(hilly-1-10-10000 on), never seen in training.", "",
     ]
+
+
+def _banner(report: dict) -> list[str]:
+    """The caveats that apply (report.json's ``caveats.banner``), before any number."""
+    banner = (report.get("caveats") or {}).get("banner", [])
+    return [line for text in banner for line in (f"> **Warning:** {text}.", "")]
 
 
 def _status(report: dict) -> list[str]:
@@ -152,7 +168,7 @@ def _boxes(report: dict) -> list[str]:
         lines += _table(["shape", "group", "runs", "logged v_x", "v_x on validation terrains"],
                         rows)
         lines += _table(["sample", "pair", "n_a", "n_b", "U", "p (two-sided)"], tests)
-        one_sided = [[f"{shape}, {which}", f"{t['a']} > {t['b']}", _n(t["u"], 1), _p(t["p"])]
+        one_sided = [[f"{shape}, {which}", f"{t['a']} > {t['b']}", _n(t["u"], 1), _p_noted(t)]
                      for shape, tests in data.get("one_sided", {}).items()
                      for which, t in tests.items() if t is not None]
         if one_sided:
@@ -236,10 +252,19 @@ def _discovery(report: dict) -> list[str]:
             for shape, s in data["summary"].items() if shape != "paper"]
     lines += _table(["shape", "robots", "median modules", "median size of the most compact",
                      "its compactness", "spans front to rear"], rows)
-    rows = [[r["task"], r.get("grid", "missing"), _n(r.get("compactness")),
+    rows = [[r["task"], r.get("grid", "missing"), _n(r.get("compactness")) + _tied(r),
              r.get("spans_front_to_rear", "")] for r in data["robots"]]
     lines += _table(["robot", "partition (rows from the top)", "compactness", "spans"], rows)
     return lines + _images(data["files"], "Figure 12")
+
+
+def _tied(row: dict) -> str:
+    """Beside a discovered module's compactness: how many other candidates share it."""
+    tied = row.get("tied_with_best")
+    if not tied:
+        return ""
+    others = "1 other candidate" if tied == 1 else f"{tied} other candidates"
+    return f" (tied with {others}; the first ranked is taken)"
 
 
 def _discovered_reassembly(report: dict) -> list[str]:

@@ -5,7 +5,8 @@ A re-optimisation is tied to its reassembly (its ``start`` option, else the reas
 needs), and a reassembly to its donors (its ``donors`` option, else the evolve tasks it needs);
 omega is the donors' (their ``config.json``, else their task options). rho is read from
 ``transfer.csv``, which ``somite reoptimize`` measured on the validation terrains; eta is the
-reassembly's pooled cut ratio (the authors' count over both donors, decisions.md).
+reassembly's pooled cut ratio (the authors' count over both donors; docs/decisions.md, "Cut
+ratios").
 """
 
 from __future__ import annotations

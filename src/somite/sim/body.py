@@ -1,9 +1,9 @@
 """Robot bodies: a shape (a grid of voxels) plus the sensors of each voxel.
 
-Grid coordinates follow the paper's code (original-system.md section 1.4): x to the right, y up,
-y = 0 is the bottom row. Voxels are always listed row by row from the bottom (y outer, x inner),
-and so are the sensor readings of a body: voxel by voxel, and inside a voxel sensor by sensor in
-the order the voxel lists them (original-system.md section 3). Controller nodes refer to readings
+Grid coordinates follow the paper's code (docs/original-system.md section 1.4): x to the right, y
+up, y = 0 is the bottom row. Voxels are always listed row by row from the bottom (y outer, x inner),
+and so are the sensor readings of a body: voxel by voxel, and inside a voxel sensor by sensor in the
+order the voxel lists them (docs/original-system.md section 3). Controller nodes refer to readings
 by their position in that list, so the order is part of the file format.
 """
 
@@ -148,7 +148,8 @@ def is_connected(cells: set[tuple[int, int]]) -> bool:
 
 def paper_sensors(shape: Shape) -> tuple[tuple[str, ...], ...]:
     """The paper's layout: area everywhere, touch on the bottom row, velocity on the top row,
-    lidar on the rightmost column (original-system.md section 2.2, on the grid's own rows)."""
+    lidar on the rightmost column (docs/original-system.md section 2.2, on the grid's own
+    rows)."""
     sensors = []
     for x, y in shape.voxels:
         kinds = ["area"]

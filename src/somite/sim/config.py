@@ -1,4 +1,4 @@
-"""Simulation settings, and the two presets of decisions.md as data.
+"""Simulation settings, and the two presets of docs/decisions.md ("Presets") as data.
 
 Every difference between the paper and the authors' code is one named option here; the presets
 ``paper`` (default) and ``original-code`` only choose values. Kernels receive the numbers packed
@@ -44,19 +44,19 @@ class SimConfig:
     ``noise_stream``: ``independent`` (somite) draws every reading's noise afresh from the
     robot's seed, step and reading; ``java-random-0`` (the authors' code) gives every sensor of
     every voxel the same ``java.util.Random(0)`` Gaussian sequence, restarted each episode, so
-    the seed is ignored (original-system.md section 2.1).
+    the seed is ignored (docs/original-system.md section 2.1).
 
     The physics (:mod:`somite.sim.physics`) takes ``substeps`` steps of 1 / (60 substeps) s per
     control step (the original: 1), each with ``velocity_iterations`` velocity passes and at
     most ``position_iterations`` position passes (dyn4j's 10 and 10); ``spring_hz`` and
     ``damping_ratio`` are the soft springs' (8 Hz, 0.3), ``friction`` is a block's on the ground
     (the original's mix, sqrt(10 x 0.2)), ``block_friction`` a block's on another block (10);
-    all the original's values (original-system.md section 1), none fitted.
+    all the original's values (docs/original-system.md section 1), none fitted.
 
     ``voxel_angle``, the voxel's orientation for voxel-frame sensors: ``vector-mean`` (somite)
     is the direction of the sum of the bottom and top side vectors; ``angle-mean`` (the authors'
     code) is the plain mean of the two sides' atan2 angles, which is off by pi when the two
-    straddle +-pi, as for an upside-down voxel (original-system.md section 1.2).
+    straddle +-pi, as for an upside-down voxel (docs/original-system.md section 1.2).
     """
 
     duration: float = 30.0
@@ -131,9 +131,23 @@ class SimConfig:
 
     @property
     def transient_steps(self) -> int:
-        """The control step from which v_x is measured (0 when the episode is too short)."""
+        """The control step from which v_x is measured (0 when the episode is too short:
+        :attr:`measures_whole_episode`)."""
         step = int(round(self.transient * CONTROL_HZ))
         return step if step < self.n_steps else 0
+
+    @property
+    def measures_whole_episode(self) -> bool:
+        """Whether a duration no longer than the transient dropped the transient, so that v_x
+        is measured over the whole episode [0, duration], start-up included, instead of over
+        [transient, duration]. Commands say so (:func:`whole_episode_warning`): a fitness
+        over another interval is not comparable with the paper's."""
+        return self.transient > 0 and int(round(self.transient * CONTROL_HZ)) >= self.n_steps
+
+    @property
+    def measured_interval(self) -> tuple[float, float]:
+        """[s] the interval v_x is measured over: (transient, duration), or (0, duration)."""
+        return self.transient_steps / CONTROL_HZ, self.n_steps / CONTROL_HZ
 
     def with_options(self, **options) -> SimConfig:
         known = {f.name for f in fields(self)}
@@ -146,6 +160,16 @@ class SimConfig:
         data = asdict(self)
         data["lidar_angles"] = list(self.lidar_angles)
         return data
+
+
+def whole_episode_warning(config: SimConfig) -> str | None:
+    """The one-line warning a command prints when ``config`` measures v_x over the whole
+    episode (:attr:`SimConfig.measures_whole_episode`); None when it does not."""
+    if not config.measures_whole_episode:
+        return None
+    return (f"duration={config.duration:g} s is not longer than transient="
+            f"{config.transient:g} s: v_x is measured over the whole episode "
+            f"[0 s, {config.duration:g} s], start-up included, not over [transient, duration]")
 
 
 def _positive_int(config: SimConfig, *names: str) -> None:
@@ -168,7 +192,7 @@ PRESETS: dict[str, dict] = {
         "voxel_angle": "angle-mean",
     },
 }
-"""The simulation half of each preset (decisions.md, "Two presets, one code path")."""
+"""The simulation half of each preset (docs/decisions.md, "Presets")."""
 
 
 def preset(name: str, **options) -> SimConfig:

@@ -1,8 +1,9 @@
 """Partitions of a body into modules: every voxel gets a module label, and the partition file.
 
-A module is a 4-connected set of voxels (decisions.md, "Modules"). The paper's manual partitions
-(paper Figure 6, original-system.md section 6.1) depend on x only: the worm's back half x <= 2 and
-front half x >= 3; the biped's two legs (whole columns x = 0 and x = 3) and its torso x in {1, 2}.
+A module is a 4-connected set of voxels (docs/decisions.md, "Partitions"). The paper's manual
+partitions (paper Figure 6, docs/original-system.md section 6.1) depend on x only: the worm's back
+half x <= 2 and front half x >= 3; the biped's two legs (whole columns x = 0 and x = 3) and its
+torso x in {1, 2}.
 
 A partition describes a body, so it lives beside :class:`~somite.sim.body.Shape`; the controller
 operators, module cutting and drawing all read it from here. File format (JSON, written by

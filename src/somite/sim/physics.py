@@ -3,21 +3,21 @@ solved with sequential impulses, as dyn4j 3.3 (the engine under 2D-VSR-Sim) solv
 
 Every function here works on one robot's arrays and is called from the episode loop of
 :mod:`somite.tasks.episode`; the batch kernel runs that loop for each robot on its own thread.
-A robot's state is one rigid square block per voxel corner (four per voxel, original-system.md
-section 1.2): ``pos`` (P, 3) holds each block's centre and angle, ``vel`` (P, 3) its velocity
-and angular velocity.
+A robot's state is one rigid square block per voxel corner (four per voxel,
+docs/original-system.md section 1.2): ``pos`` (P, 3) holds each block's centre and angle, ``vel``
+(P, 3) its velocity and angular velocity.
 
-One step (dyn4j's ``Island.solve``, original-system.md section 1.1): gravity and damping change
-the velocities; the springs (soft distance joints), rope limits, welds and contacts are set up
-from the current positions and warm-started with last step's impulses; ``velocity_iterations``
-passes over them (joints first, then contacts) bring the velocities to what the constraints
-allow; the positions move with the velocities; ``position_iterations`` passes push the rope
-limits, welds and contacts back to their places (the soft springs get no position pass); and
-the contacts for the next step are found. A contact holds its point still when Coulomb friction
-can, so a robot that does not move its voxels stays where it is. Solving the constraints one
-after the other, not all at once from one state, is what makes the welds between voxels and the
-ground couple neighbouring voxels as in the original. The model and its parameters: README,
-"The simulator"; BENCHMARKS.md, "Fidelity".
+One step (dyn4j's ``Island.solve``, docs/original-system.md section 1.1): gravity and damping change
+the velocities; the springs (soft distance joints), rope limits, welds and contacts are set up from
+the current positions and warm-started with last step's impulses; ``velocity_iterations`` passes
+over them (joints first, then contacts) bring the velocities to what the constraints allow; the
+positions move with the velocities; ``position_iterations`` passes push the rope limits, welds and
+contacts back to their places (the soft springs get no position pass); and the contacts for the next
+step are found. A contact holds its point still when Coulomb friction can, so a robot that does not
+move its voxels stays where it is. Solving the constraints one after the other, not all at once from
+one state, is what makes the welds between voxels and the ground couple neighbouring voxels as in
+the original. The model and its parameters: README, "The simulator"; docs/decisions.md, "The
+simulator"; BENCHMARKS.md, "Fidelity".
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ N_CONTACT_COLUMNS = 25
 @njit(inline="always")
 def spring_length(kind: int, scale: float) -> float:
     """Length [m] of a spring of group ``kind`` in a voxel whose side is ``scale`` times the
-    rest side (original-system.md section 1.2): the side springs span the gap between two
+    rest side (docs/original-system.md section 1.2): the side springs span the gap between two
     blocks, the cross springs join one block's outer corner to the next one's inner corner,
     the central springs join the centres of opposite blocks."""
     gap = VOXEL_SIDE * scale - 2.0 * BLOCK_SIDE

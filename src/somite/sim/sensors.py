@@ -1,4 +1,4 @@
-"""Sensor readings of one robot, computed once per control step (decisions.md, sensors).
+"""Sensor readings of one robot, computed once per control step (docs/decisions.md, "Sensors").
 
 Readings are normalised to about [0, 1]: area ratio and velocity through the soft
 normalisation 0.5 + 0.5 tanh(2(2v - 1)) of their domain ([0.5, 1.5] and [-v_max, v_max]), touch
@@ -71,7 +71,7 @@ def noise_table(config: SimConfig) -> np.ndarray:
 
     Each of the authors' sensors owns a ``java.util.Random(0)``, restarted each episode, and
     draws one Gaussian per value per step: a 1-D sensor gets #k at step k (from 1), the 2-D
-    velocity #2k-1 and #2k, the lidar #5k-4..#5k (original-system.md section 2.1). Entry
+    velocity #2k-1 and #2k, the lidar #5k-4..#5k (docs/original-system.md section 2.1). Entry
     ``width * (k - 1) + j`` of this table is Gaussian #``width * (k - 1) + j + 1``.
     """
     if config.noise_stream != "java-random-0":

@@ -5,11 +5,11 @@ Y rope limits, W welds, V voxels, R sensor readings, T terrains, K terrain verti
 entries are never read: every kernel loop runs to the robot's own count (``n_points[b]`` and
 so on), which is why a robot's outcome does not depend on the other robots of its batch.
 
-Geometry, as in the original (original-system.md sections 1.2 and 1.4): each voxel corner holds
+Geometry, as in the original (docs/original-system.md sections 1.2 and 1.4): each voxel corner holds
 a rigid square block of its own, inside the voxel. A voxel joins its four blocks with 18 soft
-springs anchored on the blocks' corners and centres, and 4 rope limits keep its adjacent blocks
-from overlapping; neighbouring voxels are joined by two rigid welds per shared side, each
-anchored at its first block's centre.
+springs anchored on the blocks' corners and centres, and 4 rope limits keep its adjacent blocks from
+overlapping; neighbouring voxels are joined by two rigid welds per shared side, each anchored at its
+first block's centre.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ _READING_CODES = {"area": (R_AREA,), "touch": (R_TOUCH,), "velocity": (R_VX, R_V
 _READING_CODES["lidar"] = tuple(R_LIDAR0 + k for k in range(SENSOR_WIDTH["lidar"]))
 
 SPRING_SIDE, SPRING_CROSS, SPRING_CENTRAL = 0, 1, 2
-"""The original's spring groups (original-system.md section 1.2): each has its own range."""
+"""The original's spring groups (docs/original-system.md section 1.2): each has its own range."""
 
 PLACEMENT_GAP = 1.0
 """Metres between the ground and the robot's lowest voxel at the start."""
@@ -106,10 +106,11 @@ def geometry(body: Body) -> Geometry:
     (voxel v owns blocks 4v .. 4v + 3, at its corners SW, SE, NE, NW).
 
     Each voxel joins its four blocks with 18 springs (per side: the inner and the outer facing
-    corners, and the two crossings of them; and the two diagonals between block centres) and
-    keeps adjacent blocks apart with 4 rope limits between their centres (original-system.md
-    section 1.2); neighbouring voxels are welded (section 1.4). Blocks that share no joint
-    collide with each other, as in the original, where joined bodies never do.
+    corners, and the two crossings of them; and the two diagonals between block centres) and keeps
+    adjacent blocks apart with 4 rope limits between their centres
+    (docs/original-system.md section 1.2); neighbouring voxels are welded (section 1.4). Blocks
+    that share no joint collide with each other, as in the original, where joined bodies never
+    do.
     """
     voxels = body.shape.voxels
     index = {c: v for v, c in enumerate(voxels)}
@@ -183,7 +184,7 @@ def geometry(body: Body) -> Geometry:
 def place(points: np.ndarray, corners: np.ndarray, terrain: Terrain, gap: float) -> np.ndarray:
     """Rest positions [m] on ``terrain``: left edge ``gap`` right of the left wall's foot
     (1 m in the paper), lowest voxel PLACEMENT_GAP above the ground under its centre
-    (original-system.md section 1.6)."""
+    (docs/original-system.md section 1.6)."""
     pos = points * VOXEL_SIDE
     pos[:, 0] += terrain.start_x + gap - pos[:, 0].min()
     quads = pos[corners]  # (V, 4, 2)

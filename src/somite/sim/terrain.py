@@ -1,9 +1,9 @@
 """Terrains: piecewise-linear ground profiles, 2000 m long, with a steep wall at each end.
 
-Names follow the authors' simulator (original-system.md section 1.5, decisions.md): ``flat``,
-``hilly-H-W-SEED``, ``steppy-H-W-SEED``, ``uphill-DEG`` and ``downhill-DEG``. ``hilly`` is
-generated exactly as the authors' code does, with a re-implementation of ``java.util.Random``,
-so that ``hilly-1-10-42`` is the same profile in somite and in the original.
+Names follow the authors' simulator (docs/original-system.md section 1.5; docs/decisions.md,
+"Terrains"): ``flat``, ``hilly-H-W-SEED``, ``steppy-H-W-SEED``, ``uphill-DEG`` and ``downhill-DEG``.
+``hilly`` is generated exactly as the authors' code does, with a re-implementation of
+``java.util.Random``, so that ``hilly-1-10-42`` is the same profile in somite and in the original.
 """
 
 from __future__ import annotations
@@ -154,7 +154,7 @@ def _hilly_walk(seed, height, width, end_x, wall_width, wall_height):
 
 
 def hilly(height: float, width: float, seed: int) -> Terrain:
-    """The authors' random walk of heights (original-system.md section 1.5), bit for bit."""
+    """The authors' random walk of heights (docs/original-system.md section 1.5), bit for bit."""
     xs, ys = _hilly_walk(int(seed), float(height), float(width), LENGTH - WALL_WIDTH,
                          WALL_WIDTH, WALL_HEIGHT)
     name = f"hilly-{_fmt(height)}-{_fmt(width)}-{seed}"

@@ -1,7 +1,7 @@
 """The batched episode kernel: where the simulator and the controllers meet.
 
 ``run_batch`` runs every robot's whole episode in one compiled loop, robots spread over the
-cores with ``prange``. Per control step k = 1..n_steps (original-system.md section 1.6): the
+cores with ``prange``. Per control step k = 1..n_steps (docs/original-system.md section 1.6): the
 physics advances ``substeps`` steps under the actuation of step k - 1, the sensors read, the
 controller computes the actuation for step k. Nothing is shared between robots but read-only
 inputs, so a robot's outcome is the same whatever batch it runs in.

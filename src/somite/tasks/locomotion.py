@@ -49,6 +49,7 @@ class Outcome:
     distance: float
     final_com: tuple[float, float]
     max_speed: float
+    """Highest speed of any block over the episode [m/s]."""
     finite: bool
     min_signed_area_ratio: float = math.nan
     """Smallest signed area of a voxel over its rest area (< 0: a voxel turned inside out)."""
@@ -74,7 +75,7 @@ class Outcome:
             "velocity": self.velocity,
             "distance": self.distance,
             "final_com": list(self.final_com),
-            "max_corner_speed": self.max_speed,
+            "max_speed": self.max_speed,
             "finite": self.finite,
             "min_signed_area_ratio": self.min_signed_area_ratio,
             "max_tilt_deg": self.max_tilt_deg,

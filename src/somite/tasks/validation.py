@@ -1,6 +1,6 @@
 """Evaluation of controllers on fixed validation terrains (transferability, ``somite evaluate``).
 
-Training draws hilly seeds from [0, 10000) (original-system.md section 1.5); the validation
+Training draws hilly seeds from [0, 10000) (docs/original-system.md section 1.5); the validation
 terrains use seeds from 10000 on, so they are never training terrains.
 """
 
@@ -70,3 +70,18 @@ def evaluate_outcomes(
     outcomes, _ = simulate(bodies, worlds, controllers, config, seeds=seed, backend=backend)
     n = len(terrains)
     return [outcomes[g * n : (g + 1) * n] for g in range(len(genomes))]
+
+
+def fresh_noise(genome: Genome, terrain: Terrain, config: SimConfig | None = None,
+                n: int = 5, seed: int = 0) -> np.ndarray:
+    """v_x [m/s] of ``genome`` on ``terrain`` under ``n`` sensor-noise draws of its own.
+
+    On one fixed terrain the noise is a run's only luck: a best of many robots is the one
+    whose draw flattered it most. These draws come from ``SeedSequence(seed)``, not from a
+    run's evaluation stream (whose seeds are uniform in [0, 2**32) as well: a coincidence is a
+    one-in-a-billion event), so they say what the genome does, not what it drew."""
+    seeds = np.random.SeedSequence(seed).generate_state(n, dtype=np.uint32)
+    arrays = compile_genome(genome)
+    outcomes, _ = simulate([genome.body] * n, [terrain] * n, [arrays] * n, config,
+                           seeds=[int(s) for s in seeds])
+    return np.array([o.velocity for o in outcomes], dtype=np.float64)

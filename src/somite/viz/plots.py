@@ -5,9 +5,11 @@ runs of each group with a band of +/- one standard deviation; where the logs hav
 ``validation_velocity`` (the best re-run on the fixed validation terrains), it is drawn dashed
 over the training v_x, which is the luckiest terrain draw. Boxplots: the best v_x at the last
 generation, one point per run, with the two-sided Mann-Whitney p-value of every pair of groups
-on a bar above them. Groups are runs sharing the value of a ``config.json`` key (``shape``,
-``omega``, ``weights_only``, ... or several, comma-separated). The numbers come from
-:mod:`somite.analysis.stats`, which ``somite plot`` also writes as JSON beside the figure.
+on a bar above them, marked "(n < 3)" where a group is too small for it to mean anything
+(:data:`~somite.analysis.stats.MIN_GROUP_SIZE`). Groups are runs sharing the value of a
+``config.json`` key (``shape``, ``omega``, ``weights_only``, ... or several, comma-separated).
+The numbers come from :mod:`somite.analysis.stats`, which ``somite plot`` also writes as JSON
+beside the figure.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis.stats import (
+    MIN_GROUP_SIZE,
     PairTest,
     RunLog,
     final_values,
@@ -207,7 +210,8 @@ def _p_value_bars(axes, tests: list[PairTest], names: list[str], samples: dict) 
         a, b = names.index(test.a) + 1, names.index(test.b) + 1
         y = high + level * step
         axes.plot([a, a, b, b], [y - 0.3 * step, y, y, y - 0.3 * step], color="black", lw=0.8)
-        axes.text(0.5 * (a + b), y, _p_text(test.p), ha="center", va="bottom", fontsize=7)
+        text = _p_text(test.p) + (f" (n < {MIN_GROUP_SIZE})" if test.caveat else "")
+        axes.text(0.5 * (a + b), y, text, ha="center", va="bottom", fontsize=7)
     axes.set_ylim(low - step, high + (len(order) + 1.2) * step)
 
 

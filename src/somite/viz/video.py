@@ -9,7 +9,7 @@ Every file is written to a temporary name beside the target and renamed when com
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +24,7 @@ from ..sim.config import SimConfig, preset
 from ..sim.terrain import Terrain, parse_terrain
 from ..tasks.locomotion import simulate
 from .brain import brain_overlay
-from .frame import AREA_RAMP, Overlay, render_frames
+from .frame import AREA_RAMP, Overlay, frame_steps, render_frames
 from .output import atomic_output, check_output
 from .recording import Recording
 from .strip import render_strip
@@ -80,12 +80,14 @@ def write_episode(
     height: int | None = None,
     genome: Genome | None = None,
     frames: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Path:
     """Draw ``recording`` into ``out_path``: ``.mp4`` or ``.gif`` (a video at ``fps``) or
     ``.png`` (a strip of ``frames`` tiles, :data:`DEFAULT_STRIP_FRAMES` by default).
 
     ``width`` x ``height`` is the video's size (960 x 540 by default) or one tile's (320 x
-    240). With ``genome``, the controller is drawn on the body.
+    240). With ``genome``, the controller is drawn on the body. ``progress(done, total)`` is
+    called after each video frame is drawn (rendering takes seconds).
     """
     out_path = check_output(out_path, OUTPUT_FORMATS)
     suffix = out_path.suffix.lower()
@@ -103,7 +105,15 @@ def write_episode(
     w, h = (2 * ((n + 1) // 2) for n in frame_size(width, height, VIDEO_SIZE))
     images = (f.image for f in render_frames(recording, fps, w, h, overlays,
                                              sensors=not overlays))
+    if progress is not None:
+        images = _counted(images, len(frame_steps(recording.n_steps, fps)), progress)
     return write_video(images, out_path, fps)
+
+
+def _counted(images: Iterable[Image.Image], total: int, progress) -> Iterator[Image.Image]:
+    for done, image in enumerate(images, 1):
+        yield image
+        progress(done, total)
 
 
 def frame_size(width: int | None, height: int | None, default: tuple[int, int]) -> tuple[int, int]:
@@ -181,6 +191,7 @@ def render_episode(
     width: int | None = None,
     height: int | None = None,
     frames: int | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Path:
     """Simulate ``genome`` on ``terrain_name`` and write the episode to ``out_path``.
 
@@ -206,6 +217,8 @@ def render_episode(
         Video size, or tile size for a strip.
     frames : int, optional
         Tiles of a ``.png`` strip.
+    progress : callable, optional
+        ``progress(done, total)`` after each video frame (:func:`write_episode`).
 
     Returns
     -------
@@ -220,7 +233,7 @@ def render_episode(
         config = config.with_options(duration=float(duration))
     recording = record_episode(genome.body, genome, terrain_name, config, seed)
     return write_episode(recording, out_path, fps, width, height,
-                         genome if brain else None, frames)
+                         genome if brain else None, frames, progress)
 
 
 __all__: Sequence[str] = [

@@ -12,13 +12,13 @@ from pathlib import Path
 
 import pytest
 
+from somite.budget import STEPS_PER_CORE_SECOND, about
 from somite.campaigns.builtin import BUDGETS, builtin
 from somite.campaigns.directory import document, prepare
 from somite.campaigns.executor import cores
 from somite.campaigns.progress import states
 from somite.campaigns.tasks import estimate, expand
 from somite.cli import main
-from somite.commands.campaign import STEPS_PER_CORE_SECOND, _about
 from somite.experiments.lock import LOCK_NAME
 from somite.experiments.logfile import LOG_COLUMNS, format_row
 
@@ -140,7 +140,7 @@ def test_list_shows_every_cell_and_a_time_at_80_columns(capsys, monkeypatch):
         kinds = [str(sum(t["kind"] == k for t in tasks))
                  for k in ("evolve", "reassemble", "reoptimize", "discover")]
         steps = sum(estimate(t) for t in tasks)
-        time = _about(steps / (STEPS_PER_CORE_SECOND * cores()))
+        time = about(steps / (STEPS_PER_CORE_SECOND * cores()))
         assert rows[name] == [str(len(tasks)), *kinds, f"{steps:.2e}", *time.split()], name
     for header in ("campaign", "tasks", "evolve", "reassemble", "reoptimize", "discover",
                    "robot-", "control-", "steps", "time on", f"{cores()} cores"):
@@ -149,5 +149,5 @@ def test_list_shows_every_cell_and_a_time_at_80_columns(capsys, monkeypatch):
 
 
 def test_a_time_is_short():
-    assert [_about(s) for s in (2.3, 600, 13_125, 2.55e6)] == ["~2 s", "~10 min", "~3.6 h",
-                                                                "~30 d"]
+    assert [about(s) for s in (2.3, 600, 13_125, 2.55e6, 1e9)] == [
+        "~2 s", "~10 min", "~3.6 h", "~30 days", "~32 years"]

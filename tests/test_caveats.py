@@ -205,7 +205,8 @@ def fake_campaign(root, seeds, **options):
                 (folder / "done.json").write_text(json.dumps(
                     {"task": task, "finished": datetime.now(UTC).isoformat()}))
                 tasks.append({"id": task, "experiment": experiment, "kind": "evolve",
-                              "path": task, "options": {"shape": shape, "seed": seed}})
+                              "path": task, "needs": [],
+                              "options": {"shape": shape, "seed": seed}})
                 run = load_run(folder)
                 genome = Genome.load(folder / "best.json")
                 entries[cache_key(genome, episode_settings(run), names)] = [0.5, 0.25]

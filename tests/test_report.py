@@ -213,13 +213,17 @@ def test_a_finished_task_that_cannot_be_read_is_shown_as_missing(campaign, tmp_p
     assert data["timelapse"] == []
 
 
+_HEAD = ('{"format": "somite-campaign", "version": 1, "name": "x", "source": "test", '
+         '"experiments": {"a": {}}, ')
+
+
 @pytest.mark.parametrize("damage, field", [
     (None, "campaign"),
     ("not json", "campaign"),
-    ('{"format": "somite-campaign", "version": 1, "tasks": [{"id": "a/b", "experiment": "a", '
-     '"kind": "evolve", "path": "../b"}]}', "campaign.tasks.path"),
-    ('{"format": "somite-campaign", "version": 1, "tasks": [{"id": "a/b", "experiment": "a", '
-     '"kind": "bake", "path": "a/b"}]}', "campaign.tasks.kind"),
+    (_HEAD + '"tasks": [{"id": "a/b", "experiment": "a", "kind": "evolve", "path": "../b", '
+     '"needs": [], "options": {}}]}', "campaign.json: tasks[0].path"),
+    (_HEAD + '"tasks": [{"id": "a/b", "experiment": "a", "kind": "bake", "path": "a/b", '
+     '"needs": [], "options": {}}]}', "campaign.json: tasks[0].kind"),
     ('{"format": "somite-campaign", "version": 2, "tasks": []}', "campaign.version"),
 ])
 def test_bad_campaign_is_one_line_and_exit_2(tmp_path, capsys, damage, field):

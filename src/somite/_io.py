@@ -175,6 +175,16 @@ def read_text(path: str | os.PathLike, field: str) -> str:
                   ) from None
 
 
+def _why(error: ValueError) -> str:
+    """A parser's ValueError in a few words: Python's int-string limit's message is long."""
+    message = str(error)
+    if "integer string conversion" in message:
+        import sys
+
+        return f"an integer of more than {sys.get_int_max_str_digits()} digits"
+    return message
+
+
 def parse_json(text: str, field: str, where: str):
     """JSON ``text`` or a one-line error: invalid, nested too deeply, an integer too long."""
     import json
@@ -186,7 +196,7 @@ def parse_json(text: str, field: str, where: str):
     except RecursionError:
         raise bad(field, where, "not valid JSON (nested too deeply)") from None
     except ValueError as error:  # JSONDecodeError, or an integer of thousands of digits
-        raise bad(field, where, f"not valid JSON ({error})") from None
+        raise bad(field, where, f"not valid JSON ({_why(error)})") from None
 
 
 def read_json(path: str | os.PathLike, field: str):
@@ -195,12 +205,16 @@ def read_json(path: str | os.PathLike, field: str):
 
 
 def read_toml(path: str | os.PathLike, field: str) -> dict:
-    """:func:`read_text` then TOML, or a one-line error naming ``field``."""
+    """:func:`read_text` then TOML, or a one-line error naming ``field`` and the file: invalid,
+    nested too deeply, an integer too long."""
     import tomllib
 
     from .errors import bad
 
+    text = read_text(path, field)
     try:
-        return tomllib.loads(read_text(path, field))
-    except tomllib.TOMLDecodeError as error:
-        raise bad(field, str(path), f"not valid TOML ({error})") from None
+        return tomllib.loads(text)
+    except RecursionError:
+        raise bad(field, str(path), "not valid TOML (nested too deeply)") from None
+    except ValueError as error:  # TOMLDecodeError, or an integer of thousands of digits
+        raise bad(field, str(path), f"not valid TOML ({_why(error)})") from None

@@ -1,12 +1,21 @@
 """The ``somite`` command line: one sub-command per module of :mod:`somite.commands`.
 
 Bad input never ends in a traceback: a :class:`~somite.errors.SomiteError` (or an argparse
-error) prints one line, ``somite <command>: error: <field>=<value>: <why>``, and exits with 2.
+error) prints one line, ``somite <command>: error: <field>=<value>: <why>``, and exits with 2;
+so does, as a last resort, an integer too long for Python to read (its int-string limit).
+
+Standard output that cannot be written is not a traceback either: a closed pipe (``somite
+campaign list | head -1``) ends the command quietly with 141 (128 + SIGPIPE, as a shell reports
+a tool that SIGPIPE stopped); a full, closed (``>&-``) or otherwise failing standard output
+prints one line, ``somite <command>: error: cannot write to standard output (<why>)``, and exits
+with 1.
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
+import os
 import pkgutil
 import sys
 
@@ -64,25 +73,164 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+EXIT_BROKEN_PIPE = 141
+"""The exit code when the reader of standard output went away (128 + SIGPIPE)."""
+
+
+class _StdoutFailed(Exception):
+    """Writing or flushing standard output failed; the OSError (or ValueError) is the cause."""
+
+
+class _ClosedStdout:
+    """``sys.stdout`` of a process started with standard output closed (``>&-``, when Python
+    sets it to None): writing anything fails, as in any Unix tool."""
+
+    encoding = "utf-8"
+    errors = "strict"
+
+    def write(self, text: str) -> int:
+        if text:
+            raise OSError(errno.EBADF, "it is closed")
+        return 0
+
+    def flush(self) -> None:
+        pass
+
+    def isatty(self) -> bool:
+        return False
+
+
+class _GuardedStdout:
+    """``sys.stdout`` while :func:`main` runs: a failed write or flush raises
+    :class:`_StdoutFailed`, so that main tells a closed, full or broken standard output from
+    any other OSError; everything else is the real stream's."""
+
+    def __init__(self, stream) -> None:
+        self._stream = stream
+
+    def _guard(self, call, *args):
+        try:
+            return call(*args)
+        except UnicodeError:
+            raise
+        except (OSError, ValueError) as error:  # ValueError: "I/O operation on closed file"
+            raise _StdoutFailed() from error
+
+    def write(self, text: str):
+        return self._guard(self._stream.write, text)
+
+    def writelines(self, lines) -> None:
+        for line in lines:
+            self.write(line)
+
+    def flush(self) -> None:
+        self._guard(self._stream.flush)
+
+    def __getattr__(self, name: str):
+        return getattr(self._stream, name)
+
+
+def _say(line: str) -> None:
+    """Write ``line`` on stderr, if stderr can still be written."""
+    try:
+        sys.stderr.write(line + "\n")
+        sys.stderr.flush()
+    except (AttributeError, OSError, ValueError):  # stderr closed (None), full or broken
+        pass
+
+
+def _to_devnull(stream) -> None:
+    """Point ``stream``'s file descriptor at /dev/null, so that the flush of its buffer when
+    Python exits does not fail again (the recipe of the Python docs' signal module notes)."""
+    try:
+        fd = stream.fileno()
+    except (AttributeError, OSError, ValueError):  # no descriptor (pytest's capture, None)
+        return
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, fd)
+        os.close(devnull)
+    except OSError:
+        pass
+
+
+def _hold_fd_1() -> None:
+    """With standard output closed, put /dev/null on descriptor 1, so that no file somite
+    opens (nor a worker process's output) lands there."""
+    try:
+        os.fstat(1)
+    except OSError:
+        try:
+            fd = os.open(os.devnull, os.O_WRONLY)
+            if fd != 1:
+                os.dup2(fd, 1)
+                os.close(fd)
+        except OSError:
+            pass
+
+
+def _stdout_failed(prog: str, error: BaseException | None, stream) -> int:
+    _to_devnull(stream)
+    if isinstance(error, BrokenPipeError):
+        return EXIT_BROKEN_PIPE
+    reason = getattr(error, "strerror", None) or str(error) or type(error).__name__
+    _say(f"{prog}: error: cannot write to standard output ({reason})")
+    return 1
+
+
+def _too_long_integer(error: ValueError) -> bool:
+    """Whether ``error`` is Python's refusal to read (or print) an integer of too many digits."""
+    return "integer string conversion" in str(error)
+
+
 def main(argv: list[str] | None = None) -> int:
     # A file name that is not UTF-8 (bytes given on the command line) is printed escaped,
     # not turned into a UnicodeEncodeError after the work is done.
     for stream in (sys.stdout, sys.stderr):
         if hasattr(stream, "reconfigure"):
             stream.reconfigure(errors="backslashreplace")
+    original = sys.stdout
+    if original is None:
+        _hold_fd_1()
+    guarded = sys.stdout = _GuardedStdout(original if original is not None else _ClosedStdout())
+    prog = ["somite"]
+    try:
+        try:
+            return _run(argv, prog)
+        finally:
+            # Inside the guard: a full or closed stdout fails here, not when Python exits.
+            guarded.flush()
+    except _StdoutFailed as failure:
+        return _stdout_failed(prog[0], failure.__cause__, original)
+    except BrokenPipeError as error:  # written past the guard (a stream kept from before main)
+        return _stdout_failed(prog[0], error, original)
+    finally:
+        sys.stdout = original
+
+
+def _run(argv: list[str] | None, prog: list[str]) -> int:
+    """Parse ``argv`` and run its command; ``prog[0]`` becomes the command's name."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    prog[0] = args.prog
     try:
         if getattr(args, "out", None) == "":
             # Path("") is ".": an empty --out would write into the current folder.
             raise bad("out", "", "is empty; name the file or folder to write")
         return int(args.handler(args) or 0)
     except SomiteError as error:
-        sys.stderr.write(f"{args.prog}: error: {error}\n")
+        _say(f"{args.prog}: error: {error}")
         return 2
     except KeyboardInterrupt:
-        sys.stderr.write(f"{args.prog}: interrupted\n")
+        _say(f"{args.prog}: interrupted")
         return 130
+    except ValueError as error:
+        if not _too_long_integer(error):
+            raise
+        # The last resort: a parser that reads an integer without checking its length first.
+        _say(f"{args.prog}: error: a number has more than {sys.get_int_max_str_digits()} "
+             "digits (Python's limit for reading an integer); give a shorter one")
+        return 2
 
 
 if __name__ == "__main__":

@@ -24,6 +24,12 @@ MAX_FRAMES = 1_000
 MIN_FPS = 1.0
 MAX_OMEGA = 1e100
 """The modularity bias omega (the paper's: 10)."""
+MAX_OPERATOR_WEIGHT = 1e6
+"""An operator's probability ``p_*``: they are relative weights (the paper's sum to 1), drawn
+in proportion; bounded so that their sum cannot overflow to infinity."""
+MAX_SIGMA = 1e3
+"""The weight mutation's standard deviation (the paper's: 0.35): far past any useful value,
+far below where a mutated weight would leave :data:`MAX_WEIGHT`."""
 MAX_WEIGHT = 1e100
 """An edge's weight or bias (evolved ones stay within a few units): sums over any genome's
 edges stay finite."""

@@ -29,6 +29,8 @@ from .directory import finished
 from .work import run_task
 
 RETRIES = 3
+CONNECT_TIMEOUT = "30s"
+"""How long :func:`connect` tries to reach a ``--scheduler``."""
 
 
 @dataclass
@@ -68,14 +70,44 @@ def sizing(workers: int | None, threads: int | None) -> tuple[int, int]:
     return workers, threads
 
 
+class Connection:
+    """A Dask client: of the scheduler at ``scheduler``, or (None) of a LocalCluster of
+    ``workers`` processes started here; a context manager that closes both. ``campaign run``
+    connects before it writes anything, so that a scheduler it cannot reach leaves nothing
+    behind (and a rerun is not refused as a campaign already there)."""
+
+    def __init__(self, scheduler: str | None, workers: int) -> None:
+        self.client, self.cluster = _client(scheduler, workers)
+
+    def close(self) -> None:
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+    def __enter__(self) -> Connection:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def connect(scheduler: str | None, workers: int | None = None,
+            threads: int | None = None) -> Connection:
+    """:class:`Connection` to ``scheduler`` (sized by :func:`sizing` for a LocalCluster), or
+    a one-line error."""
+    check_scheduler(scheduler)
+    return Connection(scheduler, sizing(workers, threads)[0])
+
+
 def _client(scheduler: str | None, workers: int):
     from distributed import Client, LocalCluster
 
     if scheduler:
         try:
-            return Client(scheduler, timeout="30s"), None
+            return Client(scheduler, timeout=CONNECT_TIMEOUT), None
         except (OSError, TimeoutError, ValueError) as error:
-            raise bad("scheduler", scheduler, f"cannot connect ({error})") from None
+            reason = (str(error).strip().splitlines() or [type(error).__name__])[0]
+            raise bad("scheduler", scheduler, f"cannot connect ({reason})") from None
     with warnings.catch_warnings():
         # "Port 8787 is already in use" (another cluster's dashboard): this one takes another
         # port, and the progress view shows which.
@@ -103,9 +135,11 @@ def dashboard_link(client, local: bool) -> str:
 
 def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
             workers: int | None = None, threads: int | None = None, retries: int = RETRIES,
-            watch: Callable[[Outcome], None] | None = None) -> Outcome:
+            watch: Callable[[Outcome], None] | None = None,
+            connection: Connection | None = None) -> Outcome:
     """Run every unfinished task of the campaign ``doc`` in ``directory``; ``watch`` is called
-    about twice a second while it goes on (for a progress view)."""
+    about twice a second while it goes on (for a progress view). With ``connection`` (of
+    :func:`connect`) the tasks run there, and it is left open; else one is made and closed."""
     directory = Path(directory).resolve()
     tasks = [t for t in doc["tasks"] if not finished(directory, t)]
     outcome = Outcome()
@@ -113,7 +147,10 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
         return outcome
     workers, threads = sizing(workers, threads)
     start = time.perf_counter()
-    client, cluster = _client(scheduler, workers)
+    own = connection is None
+    if own:
+        connection = Connection(scheduler, workers)
+    client, cluster = connection.client, connection.cluster
     futures = {}
     try:
         outcome.dashboard = dashboard_link(client, cluster is not None)
@@ -147,9 +184,8 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
         client.cancel(list(futures.values()))
         raise
     finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        if own:
+            connection.close()
     outcome.wall_s = time.perf_counter() - start
     return outcome
 

@@ -28,8 +28,17 @@ A campaign is TOML (or the same structure as a dict, for the built-ins)::
     b_max = 5
 
 Run options are those of ``somite evolve``'s TOML (:func:`somite.experiments.config.resolve`);
-they are checked when the campaign is expanded into tasks (:mod:`.tasks`). Everything else is
-checked here, every error one line naming the field (``experiments.rq1.seeds``) and its value.
+they are checked when the campaign is expanded into tasks (:mod:`.tasks`), before anything is
+written. A run's shape, seed and start are the campaign's to decide (``shapes``, ``seeds``, the
+reassembly a re-optimisation starts from): ``shape``, ``seed`` and ``start`` in ``defaults``,
+``options``, a variant or ``reoptimize`` are refused, not ignored. Names (experiments,
+variants) are at most :data:`MAX_NAME` characters: they become folder names.
+
+File paths in a campaign file (a reassembly's ``partition = "parts.json"``, the ``modules``
+run option) are read relative to the folder of the TOML file (for :func:`parse`, relative to
+``base``, by default the current folder) and kept as absolute paths in the tasks, so that
+every task reads the same file whatever folder it runs in. Everything else is checked here,
+every error one line naming the field (``experiments.rq1.seeds``) and its value.
 """
 
 from __future__ import annotations
@@ -38,11 +47,28 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .._io import read_toml
-from ..errors import bad
+from ..errors import SomiteError, bad
+from ..sim.body import Shape
 
 KINDS = ("evolve", "reassemble", "discover")
 PAIRINGS = ("next", "cross")
 _NAME_CHARS = set("abcdefghijklmnopqrstuvwxyz0123456789-_.")
+MAX_NAME = 64
+"""Characters of an experiment's or a variant's name (a folder name, and part of task ids)."""
+_RESERVED = ("campaign.json",)
+"""Names a campaign directory holds already (its experiments are its top-level folders)."""
+CAMPAIGN_DECIDES = {
+    "shape": "the experiment's shapes decide each run's shape",
+    "seed": "the experiment's seeds decide each run's seed",
+    "start": "an evolve run starts from scratch, a re-optimisation from its reassembly",
+}
+"""Run options a campaign decides itself (refused where they would be ignored)."""
+REOPTIMIZE_DECIDES = {
+    "shape": "the reassembly's receiver (one of the donors' shapes) decides the shape",
+    "seed": "the seed of the first donor run (one of the donors' seeds) decides it",
+    "start": "a re-optimisation starts from its reassembly",
+}
+"""The same, for the options of a reassembly's re-optimisation."""
 
 
 @dataclass(frozen=True)
@@ -91,14 +117,16 @@ _KEYS = {
 
 
 def load(path: str | Path) -> Campaign:
-    """A campaign file (TOML), checked."""
+    """A campaign file (TOML), checked; its file paths are read relative to its folder."""
     path = Path(path)
     data = read_toml(path, "campaign")
-    return parse(data, name=path.stem, source=str(path))
+    return parse(data, name=path.stem, source=str(path), base=path.parent)
 
 
-def parse(data: dict, name: str, source: str) -> Campaign:
-    """Check the campaign ``data`` (a TOML document's dict)."""
+def parse(data: dict, name: str, source: str, base: str | Path | None = None) -> Campaign:
+    """Check the campaign ``data`` (a TOML document's dict); relative file paths in it are
+    read relative to ``base`` (default: the current folder) and made absolute."""
+    base = Path.cwd() if base is None else Path(base)
     if not isinstance(data, dict):
         raise bad("campaign", type(data).__name__, "expected a table")
     for key in data:
@@ -109,14 +137,46 @@ def parse(data: dict, name: str, source: str) -> Campaign:
     validation = _typed(data, "validation", int, 10)
     if not 1 <= validation <= 1000:
         raise bad("validation", validation, "must be between 1 and 1000")
-    defaults = _typed(data, "defaults", dict, {})
+    defaults = _run_table(_typed(data, "defaults", dict, {}), "defaults.", CAMPAIGN_DECIDES,
+                          base)
     tables = _typed(data, "experiments", dict, None)
     if not tables:
         raise bad("experiments", tables, "a campaign needs at least one experiment")
     experiments: list[Experiment] = []
     for exp_name, table in tables.items():
-        experiments.append(_experiment(exp_name, table, {e.name: e for e in experiments}))
-    return Campaign(name, source, title, validation, dict(defaults), tuple(experiments))
+        experiments.append(_experiment(exp_name, table, {e.name: e for e in experiments}, base))
+    return Campaign(name, source, title, validation, defaults, tuple(experiments))
+
+
+def check_name(field: str, name: str) -> None:
+    """An experiment's or a variant's name: a folder name, safe on every file system."""
+    if not name or not set(name) <= _NAME_CHARS or name[0] in "-._":
+        raise bad(field, name, "names use a-z, 0-9, '-', '_' and '.', and start with a letter "
+                  "or digit")
+    if len(name) > MAX_NAME:
+        raise bad(field, name, f"names are at most {MAX_NAME} characters")
+    if name in _RESERVED:
+        raise bad(field, name, "is the name of the campaign directory's own file")
+
+
+def _run_table(options: dict, where: str, decided: dict[str, str], base: Path) -> dict:
+    """Run options of the campaign file (``where`` names them): a key the campaign decides is
+    refused (it would be ignored), a partition file of ``modules`` is made absolute."""
+    for key, why in decided.items():
+        if key in options:
+            raise bad(where + key, options[key], f"ignored in a campaign: {why}")
+    options = dict(options)
+    if isinstance(options.get("modules"), str):
+        options["modules"] = _file(options["modules"], base)
+    return options
+
+
+def _file(spec: str, base: Path) -> str:
+    """A partition given as a file (``*.json``) as an absolute path, relative ones read from
+    ``base``; presets and grids of labels as they are."""
+    if not spec.strip().endswith(".json"):
+        return spec
+    return str((base / spec.strip()).resolve())
 
 
 def _typed(table: dict, key: str, kind: type, default, where: str = ""):
@@ -132,11 +192,9 @@ def _typed(table: dict, key: str, kind: type, default, where: str = ""):
     return value
 
 
-def _experiment(name: str, table, earlier: dict[str, Experiment]) -> Experiment:
+def _experiment(name: str, table, earlier: dict[str, Experiment], base: Path) -> Experiment:
     where = f"experiments.{name}."
-    if not name or not set(name) <= _NAME_CHARS or name[0] in "-." or "/" in name:
-        raise bad("experiments", name, "names use a-z, 0-9, '-', '_' and '.', and start with "
-                  "a letter or digit")
+    check_name("experiments", name)
     if not isinstance(table, dict):
         raise bad(where[:-1], table, "expected a table")
     kind = _typed(table, "kind", str, None, where)
@@ -149,19 +207,21 @@ def _experiment(name: str, table, earlier: dict[str, Experiment]) -> Experiment:
     common = {"name": name, "kind": kind, "title": _typed(table, "title", str, "", where),
               "paper": _typed(table, "paper", str, "", where)}
     if kind == "evolve":
-        return Experiment(**common, **_grid(table, where))
+        return Experiment(**common, **_grid(table, where, base))
     if kind == "discover":
         genomes = _earlier(table, "genomes", where, earlier, "evolve")[0]
         b_min = _typed(table, "b_min", int, 2, where)
         b_max = _typed(table, "b_max", int, 5, where)
         if not 1 <= b_min <= b_max:
             raise bad(where + "b_max", b_max, f"need 1 <= b_min ({b_min}) <= b_max")
+        for shape in earlier[genomes].shapes:
+            _candidates(shape, b_min, b_max, where)
         return Experiment(**common, genomes=genomes, b_min=b_min, b_max=b_max)
     donors = _earlier(table, "donors", where, earlier, "evolve")
     pairing = _typed(table, "pairing", str, "next", where)
     if pairing not in PAIRINGS:
         raise bad(where + "pairing", pairing, f"use one of {list(PAIRINGS)}")
-    partition = _typed(table, "partition", str, "paper", where)
+    partition = _file(_typed(table, "partition", str, "paper", where), base)
     modules_from = ""
     if "modules_from" in table:
         if "partition" in table:
@@ -173,17 +233,38 @@ def _experiment(name: str, table, earlier: dict[str, Experiment]) -> Experiment:
                       f"discovers modules of {earlier[modules_from].genomes}, not of the donors")
         if pairing != "next":
             raise bad(where + "pairing", pairing, "discovered modules need pairing 'next'")
-    reoptimize = _typed(table, "reoptimize", dict, {}, where) if "reoptimize" in table else None
+    reoptimize = None
+    if "reoptimize" in table:
+        reoptimize = _run_table(_typed(table, "reoptimize", dict, {}, where),
+                                where + "reoptimize.", REOPTIMIZE_DECIDES, base)
     return Experiment(**common, donors=donors, pairing=pairing, partition=partition,
                       modules_from=modules_from, reoptimize=reoptimize)
 
 
-def _grid(table: dict, where: str) -> dict:
+def _candidates(shape: str, b_min: int, b_max: int, where: str) -> None:
+    """Refuse sizes of discovered modules that ``shape``'s body cannot have, or whose
+    candidates are too many to enumerate (what the discovery itself would refuse)."""
+    from ..modules.discovery import connected_sets
+
+    try:
+        connected_sets(Shape.parse(shape), b_min, b_max)
+    except SomiteError as error:
+        raise SomiteError(f"{where}{error} (shape {shape})") from None
+
+
+def _grid(table: dict, where: str, base: Path) -> dict:
     shapes = _typed(table, "shapes", list, None, where)
     if not shapes or not all(isinstance(s, str) and s for s in shapes):
         raise bad(where + "shapes", shapes, "a non-empty list of shapes (biped, worm, ...)")
     if len(set(shapes)) != len(shapes):
         raise bad(where + "shapes", shapes, "a shape is listed twice")
+    for shape in shapes:
+        if shape != shape.strip():
+            raise bad(where + "shapes", shape, "a shape without spaces around it")
+        try:
+            Shape.parse(shape)
+        except SomiteError as error:
+            raise SomiteError(f"{where}{error}") from None
     seeds = table.get("seeds")
     if isinstance(seeds, int) and not isinstance(seeds, bool):
         if not 1 <= seeds <= 10_000:
@@ -197,13 +278,14 @@ def _grid(table: dict, where: str) -> dict:
         raise bad(where + "seeds", seeds, "a seed is listed twice")
     variants = _typed(table, "variants", dict, {}, where)
     for variant, options in variants.items():
-        if not variant or not set(variant) <= _NAME_CHARS:
-            raise bad(where + "variants", variant, "names use a-z, 0-9, '-', '_' and '.'")
+        check_name(where + "variants", variant)
         if not isinstance(options, dict):
             raise bad(where + "variants." + variant, options, "expected a table of run options")
     return {"shapes": tuple(shapes), "seeds": tuple(seeds),
-            "options": dict(_typed(table, "options", dict, {}, where)),
-            "variants": {k: dict(v) for k, v in variants.items()}}
+            "options": _run_table(_typed(table, "options", dict, {}, where), where + "options.",
+                                  CAMPAIGN_DECIDES, base),
+            "variants": {k: _run_table(v, f"{where}variants.{k}.", CAMPAIGN_DECIDES, base)
+                         for k, v in variants.items()}}
 
 
 def _earlier(table: dict, key: str, where: str, earlier: dict[str, Experiment],

@@ -5,10 +5,15 @@ A task is plain data (it travels to Dask workers and into ``campaign.json``)::
     {"id": "rq1/worm-s0", "experiment": "rq1", "kind": "evolve", "path": "rq1/worm-s0",
      "needs": [...], "options": {...}}
 
-Every option is resolved here, defaults included, so that the task list alone says what ran.
-Evolve and re-optimisation options are a run's ``config.json`` (plus ``representation``, and
-for a re-optimisation ``donors`` and ``validation``); the other options name tasks by id and
-partitions by preset or by a file relative to the campaign directory.
+Every option is resolved here, defaults included, so that the task list alone says what ran,
+and checked here, before ``campaign.json`` is written: what a task would refuse when it runs is
+refused now. Evolve and re-optimisation options are a run's ``config.json`` (plus
+``representation``, and for a re-optimisation ``donors`` and ``validation``), each resolved by
+:func:`~somite.experiments.config.resolve` and its ``modules`` partition parsed for its shape;
+the other options name tasks by id and partitions by preset, by grid, by a discovery's
+``partition.json`` relative to the campaign directory, or by the absolute path of a file the
+campaign file names (:mod:`.spec`). Task ids are unique (two tasks of one id: the campaign is
+refused).
 """
 
 from __future__ import annotations
@@ -43,7 +48,21 @@ def expand(campaign: Campaign) -> list[dict]:
                             "genome": run["id"], "b_min": exp.b_min, "b_max": exp.b_max}))
         else:
             _reassemble(campaign, exp, runs, tasks)
+    _unique(tasks)
     return tasks
+
+
+def _unique(tasks: list[dict]) -> None:
+    """Refuse two tasks of one id (one would never run): the names an experiment makes of
+    donor experiments, variants and shapes can meet (donors ``omega-10`` and ``omega``, whose
+    variant ``10`` makes ``omega-10-worm-...`` too)."""
+    seen: set[str] = set()
+    for task in tasks:
+        if task["id"] in seen:
+            raise bad(f"experiments.{task['experiment']}", task["id"],
+                      "a task id this experiment makes twice (one would never run); rename a "
+                      "variant or an experiment")
+        seen.add(task["id"])
 
 
 def _task(exp: Experiment, name: str, kind: str, needs: list[str], options: dict) -> dict:
@@ -57,11 +76,17 @@ def _name(task: dict) -> str:
 
 
 def _run_options(where: str, options: dict) -> dict:
-    """A run's options, resolved (one-line errors name the experiment)."""
+    """A run's options, resolved, and its partition of ``modules`` parsed for its shape (the
+    EA reads it when it starts); one-line errors name the experiment."""
     try:
         config = resolve(options)
     except SomiteError as error:
         raise SomiteError(f"{where}.{error}") from None
+    try:
+        config.ga.partition(Shape.parse(config.shape))
+    except SomiteError as error:
+        raise bad(f"{where}.modules", config.ga.modules,
+                  f"not a partition of {config.shape} ({error})") from None
     data = config.to_dict()
     data["representation"] = "weights" if config.ga.weights_only else "graph"
     return data

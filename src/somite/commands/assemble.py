@@ -8,7 +8,14 @@ import json
 from .._io import check_output_folder, make_folder, write_atomic
 from ..errors import bad
 from ..modules.library import assemble, list_library, parse_placement
-from .common import add_simulation_options, simulation_config, warn_whole_episode
+from .common import (
+    add_options,
+    add_simulation_options,
+    check_episodes,
+    simulation_config,
+    warn_whole_episode,
+    whole_int,
+)
 
 HELP = "Assemble a robot from library modules placed at grid offsets (NAME@X,Y)."
 
@@ -21,10 +28,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--out", required=True, help="output folder")
     parser.add_argument(
-        "--evaluate", type=int, default=0, metavar="N",
+        "--evaluate", type=whole_int("evaluate"), default=0, metavar="N",
         help="also measure v_x on N validation terrains (default 0: no simulation)",
     )
     add_simulation_options(parser)
+    add_options(parser, "yes")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -37,6 +45,8 @@ def run(args: argparse.Namespace) -> int:
         parse_placement(text, library, f"place[{i}]") for i, text in enumerate(args.place)
     ]
     genome = assemble(placements)
+    if config is not None:
+        check_episodes(args.evaluate, config, genome.body, args.yes, "this evaluation")
     evaluation = _evaluate(args, genome, config) if args.evaluate else None
     make_folder(out)
     genome.save(out / "assembled.json")

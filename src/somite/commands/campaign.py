@@ -31,6 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument("--threads", type=int,
                      help="Numba threads per task (default 1, or cores / --workers)")
     run.add_argument("--quiet", action="store_true", help="no progress view")
+    run.add_argument("--yes", action="store_true",
+                     help="start a campaign estimated at more than 12 h on this machine's "
+                     "cores (refused without it; not checked with --scheduler)")
     sub.add_parser("list", help="the built-in campaigns, their tasks and robot-control-steps")
     status = sub.add_parser("status", help="the table of a campaign directory's tasks")
     status.add_argument("directory", help="campaign directory")
@@ -54,8 +57,10 @@ def load_campaign(name: str):
 
 
 def _run(args: argparse.Namespace) -> int:
+    from contextlib import nullcontext
+
     from ..campaigns import directory as campaign_dir
-    from ..campaigns.executor import check_scheduler, execute, sizing
+    from ..campaigns.executor import check_scheduler, connect, execute, sizing
     from ..campaigns.tasks import expand
     from ..experiments.lock import RunLock
 
@@ -70,13 +75,27 @@ def _run(args: argparse.Namespace) -> int:
         doc = campaign_dir.document(campaign, expand(campaign))
     out = Path(args.out)
     # Refused before its directory is created or locked; checked again once locked.
-    campaign_dir.prepare(out, doc, args.resume, write=False)
-    out.mkdir(parents=True, exist_ok=True)
-    with RunLock(out):
-        doc = campaign_dir.prepare(out, doc, args.resume)
-        with LiveView(out, doc, args.quiet) as view:
-            outcome = execute(out, doc, args.scheduler, args.workers, args.threads,
-                              watch=view.update)
+    planned = campaign_dir.prepare(out, doc, args.resume, write=False)
+    campaign_dir.check_runnable(planned)
+    # Connected (or the local cluster started) before anything is written: a scheduler that
+    # cannot be reached leaves no campaign.json, which would refuse the next attempt.
+    left = [t for t in planned["tasks"] if not campaign_dir.finished(out, t)]
+    if args.scheduler is None:  # a cluster's size is its own; a local one's is this machine
+        from ..budget import check_time, hours
+        from ..campaigns.executor import cores
+        from ..campaigns.tasks import estimate
+
+        check_time("this campaign", hours(sum(estimate(t) for t in left), cores=cores()),
+                   args.yes)
+    pending = bool(left)
+    with connect(args.scheduler, args.workers, args.threads) if pending else nullcontext() \
+            as connection:
+        out.mkdir(parents=True, exist_ok=True)
+        with RunLock(out):
+            doc = campaign_dir.prepare(out, doc, args.resume)
+            with LiveView(out, doc, args.quiet) as view:
+                outcome = execute(out, doc, args.scheduler, args.workers, args.threads,
+                                  watch=view.update, connection=connection)
     for task_id, reason in outcome.failed.items():
         sys.stderr.write(f"somite campaign: task {task_id} failed: {reason}\n")
     if outcome.skipped:
@@ -92,19 +111,13 @@ def _run(args: argparse.Namespace) -> int:
     return 1 if outcome.failed or outcome.skipped else 0
 
 
-STEPS_PER_CORE_SECOND = 20_000
-"""Robot-control-steps a second that one core simulates, for ``campaign list``'s time
-estimate: BENCHMARKS.md's kernel figure for the worm (the slower shape), 39,225 a second on 2
-cores (2 Numba threads), halved. A campaign runs one single-threaded task a core at 0.99x the
-kernel's rate (BENCHMARKS.md, "Campaigns on Dask"), so the estimate scales with the cores
-(campaigns have far more tasks than cores until their last few)."""
-
 _KINDS = ("evolve", "reassemble", "reoptimize", "discover")
 
 
 def _list(args: argparse.Namespace) -> int:
     from rich.console import Console
 
+    from ..budget import STEPS_PER_CORE_SECOND, about, hours
     from ..campaigns.builtin import BUDGETS, builtin
     from ..campaigns.executor import cores
     from ..campaigns.tasks import estimate, expand
@@ -116,7 +129,7 @@ def _list(args: argparse.Namespace) -> int:
         kinds = [sum(t["kind"] == k for t in tasks) for k in _KINDS]
         steps = sum(estimate(t) for t in tasks)
         rows.append([name, str(len(tasks)), *map(str, kinds), f"{steps:.2e}",
-                     _about(steps / (STEPS_PER_CORE_SECOND * n))])
+                     about(hours(steps, cores=n) * 3600)])
     console = Console()
     console.print(_fit(console, lambda compact: _list_table(rows, n, compact)))
     # Through rich, so that the note wraps at the terminal's width too.
@@ -140,17 +153,6 @@ def _list_table(rows: list[list[str]], n: int, compact: bool):
     for row in rows:
         grid.add_row(*row)
     return grid
-
-
-def _about(seconds: float) -> str:
-    """A rough duration, in the unit that keeps it short."""
-    if seconds < 90:
-        return f"~{seconds:.0f} s"
-    if seconds < 90 * 60:
-        return f"~{seconds / 60:.0f} min"
-    if seconds < 48 * 3600:
-        return f"~{seconds / 3600:.1f} h"
-    return f"~{seconds / 86400:.0f} d"
 
 
 def _style(compact: bool) -> dict:

@@ -9,11 +9,22 @@ import sys
 
 from ..errors import bad
 
+MAX_NUMBER_CHARS = 30
+"""The most characters of a number on the command line; a longer one is refused unread (int()
+of over 4300 digits is a ValueError, float() of 400 is infinity)."""
+
+
+def _too_long(text: str) -> bool:
+    return len(text.strip()) > MAX_NUMBER_CHARS
+
 
 def finite_float(field: str):
     """An argparse type: a finite float, or a one-line error naming ``field``."""
 
     def parse(text: str) -> float:
+        if _too_long(text):
+            raise argparse.ArgumentTypeError(str(bad(
+                field, text, f"must be a number of at most {MAX_NUMBER_CHARS} characters")))
         try:
             value = float(text)
         except ValueError:
@@ -26,8 +37,39 @@ def finite_float(field: str):
     return parse
 
 
+def whole_int(field: str):
+    """An argparse type: an integer (its range is checked where it is used), or a one-line
+    error naming ``field``."""
+
+    def parse(text: str) -> int:
+        if _too_long(text):
+            raise argparse.ArgumentTypeError(str(bad(
+                field, text, f"must be an integer of at most {MAX_NUMBER_CHARS} characters")))
+        try:
+            return int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(str(bad(field, text, "must be an integer"))
+                                             ) from None
+
+    parse.__name__ = field
+    return parse
+
+
+def _strict(value):
+    """``value`` with NaN and infinities as None (JSON's null), in dicts, lists and tuples."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _strict(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_strict(v) for v in value]
+    return value
+
+
 def print_json(data) -> None:
-    json.dump(data, sys.stdout, indent=2, allow_nan=True)
+    """``data`` as strict JSON on stdout: NaN and infinities are ``null`` (the README's promise;
+    ``NaN`` is not JSON)."""
+    json.dump(_strict(data), sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
 
 
@@ -65,6 +107,8 @@ def load_genome(path: str):
 
 def seed_int(text: str) -> int:
     """An argparse type: a seed in [0, 2**32), or a one-line error naming ``seed``."""
+    if _too_long(text):
+        raise argparse.ArgumentTypeError(str(bad("seed", text, "must be in [0, 2**32)")))
     try:
         value = int(text)
     except ValueError:
@@ -91,10 +135,13 @@ _SHARED = {
     "preset": ({}, "paper or original-code (docs/decisions.md, Presets)"),
     "shape": ({}, "biped, worm, WxH or rows like 1111/1001"),
     "sensors": ({}, "sensor preset: paper, none, area or all"),
-    "validation": ({"type": int, "metavar": "N"}, "how many fixed validation terrains"),
+    "validation": ({"type": whole_int("validation"), "metavar": "N"},
+                   "how many fixed validation terrains"),
     "backend": ({"default": "cpu"}, "where episodes run: cpu (default), or cuda (an NVIDIA GPU; "
                 "pip install somite[cuda]); not part of a run's configuration"),
     "json": ({"action": "store_true"}, "print JSON"),
+    "yes": ({"action": "store_true"}, "start work estimated at more than 12 h on 2 cores "
+            "(refused without it)"),
     "quiet": ({"action": "store_true"}, "print nothing while running"),
 }
 
@@ -177,3 +224,26 @@ def warn_whole_episode(prog: str, config) -> None:
     message = whole_episode_warning(config)
     if message:
         warn(prog, message)
+
+
+def check_run_work(config, voxels: int, yes: bool, what: str = "this run") -> None:
+    """Refuse a run (a :class:`~somite.experiments.config.RunConfig`) that would not finish
+    in :data:`~somite.budget.MAX_HOURS` without ``yes``, or whose batches would not fit."""
+    from ..budget import check_batch, check_steps
+    from ..campaigns.tasks import run_steps
+
+    options = config.to_dict()
+    check_steps(what, run_steps(options), voxels, yes)
+    per_batch = options["population"] * (2 if options["reevaluate_parents"] else 1)
+    check_batch(per_batch * options["evaluations"], voxels)
+
+
+def check_episodes(episodes: int, config, body, yes: bool, what: str) -> None:
+    """Refuse ``episodes`` episodes of ``body`` under ``config`` (a SimConfig), run as one
+    batch, that would not finish in :data:`~somite.budget.MAX_HOURS` without ``yes`` or whose
+    batch would not fit in memory."""
+    from ..budget import check_batch, check_steps
+
+    voxels = body.shape.n_voxels
+    check_steps(what, float(episodes) * config.n_steps, voxels, yes)
+    check_batch(episodes, voxels)

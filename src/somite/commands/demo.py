@@ -11,7 +11,7 @@ from ..sim.terrain import parse_terrain
 from ..tasks.validation import fresh_noise
 from ..tasks.velocity import mean_velocity
 from ._progress import note_compiling, rendering
-from .common import add_options
+from .common import add_options, whole_int
 from .evolve import progress_bar, summarise
 
 HELP = "Evolve a worm on flat ground for 60 generations, render its best gait, plot the run."
@@ -31,7 +31,8 @@ RECHECKS = 5
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="demo", help="output folder")
-    parser.add_argument("--generations", type=int, default=DEMO["generations"],
+    parser.add_argument("--generations", type=whole_int("generations"),
+                        default=DEMO["generations"],
                         help="generations after the initial population")
     add_options(parser, "quiet")
 

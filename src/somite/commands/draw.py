@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from ..experiments.lock import lock_if_run
+from ..experiments.runner import MANIFEST, RUN_FILES
 from ..sim.partition import Partition
 from ..viz.brain import BRAIN_FORMATS, draw_brain
 from ..viz.output import check_output
@@ -26,7 +28,9 @@ def run(args: argparse.Namespace) -> int:
     partition = None
     if args.partition is not None:
         partition = Partition.parse(args.partition, genome.body.shape)
-    drawing = draw_brain(genome, out, partition)
+    # Into a run directory, only with its lock: a running run there refuses the command.
+    with lock_if_run(out.parent, (*RUN_FILES, MANIFEST)):
+        drawing = draw_brain(genome, out, partition)
     summary = f"wrote {out}: {genome.n_nodes} nodes, {genome.n_edges} edges"
     if partition is not None:
         n_cut = sum(edge.cut for edge in drawing.edges)

@@ -17,6 +17,7 @@ from .common import (
     NON_FINITE,
     add_options,
     add_simulation_options,
+    check_episodes,
     load_genome,
     option,
     print_json,
@@ -39,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "when it was one fixed terrain (e.g. flat), else the validation "
                         "terrains")
     add_simulation_options(parser, layered=GENOME_RUN)
-    add_options(parser, "json")
+    add_options(parser, "json", "yes")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -57,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
         terrains = validation_terrains(args.validation)
         where = f"{len(terrains)} validation terrains"
     config = simulation_config(args, origin)
+    check_episodes(len(terrains), config, genome.body, args.yes, "this evaluation")
     settings = settings_line(args, config, origin, where)
     note_compiling()
     outcomes = evaluate_outcomes([genome], terrains, config, args.seed)[0]

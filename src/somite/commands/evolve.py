@@ -14,7 +14,14 @@ from ..experiments.runner import RunDirectory, evolve
 from ..tasks.backends import check_backend
 from ..tasks.distributions import DISTRIBUTION_HELP
 from ._progress import note_compiling
-from .common import NON_FINITE, add_options, finite_float, warn_whole_episode
+from .common import (
+    NON_FINITE,
+    add_options,
+    check_run_work,
+    finite_float,
+    warn_whole_episode,
+    whole_int,
+)
 
 HELP = "Evolve a graph controller with the paper's EA; writes logs, bests and checkpoints."
 
@@ -33,10 +40,10 @@ def add_evolution_options(parser: argparse.ArgumentParser,
     parser.add_argument("--out", required=True, help="run directory")
     parser.add_argument("--config", help="TOML file with any of the options below")
     add_options(parser, "preset", layered=_LAYERED)
-    parser.add_argument("--generations", type=int,
+    parser.add_argument("--generations", type=whole_int("generations"),
                         help="generations after the initial population (default: the --config "
                         f"file's, else {generations})")
-    parser.add_argument("--population", type=int,
+    parser.add_argument("--population", type=whole_int("population"),
                         help="robots per generation (default: the --config file's, else "
                         f"{GAConfig().population})")
     add_options(parser, "seed", layered=_LAYERED,
@@ -44,10 +51,10 @@ def add_evolution_options(parser: argparse.ArgumentParser,
     parser.add_argument("--terrain", help=f"training terrains: {DISTRIBUTION_HELP}; "
                         "default hilly-1-10-rnd (a new terrain per evaluation)")
     add_options(parser, "duration", layered=_LAYERED)
-    parser.add_argument("--evaluations", type=int, metavar="K",
+    parser.add_argument("--evaluations", type=whole_int("evaluations"), metavar="K",
                         help="terrains per evaluation, fitness their mean v_x "
                         "(default 1: the paper)")
-    parser.add_argument("--validate-every", type=int, metavar="N",
+    parser.add_argument("--validate-every", type=whole_int("validate_every"), metavar="N",
                         help="log the best's mean v_x on the 10 validation terrains every N "
                         "generations and at the last (default 50; 0: never)")
     parser.add_argument("--omega", type=finite_float("omega"),
@@ -62,14 +69,14 @@ def add_evolution_options(parser: argparse.ArgumentParser,
                         help="evaluate parents again every generation, on new terrains (the "
                         "default, as the authors' code; --no-reevaluate-parents: Algorithm 1 "
                         "as printed, each parent keeps its one evaluation)")
-    parser.add_argument("--checkpoint-every", type=int, metavar="N",
+    parser.add_argument("--checkpoint-every", type=whole_int("checkpoint_every"), metavar="N",
                         help="generations between checkpoints (default: the --config file's, "
                         f"else {RunConfig.checkpoint_every})")
     parser.add_argument("--resume", action="store_true",
                         help="continue from the last checkpoint (a run killed before its first "
                         "one starts again: the same run)")
     parser.add_argument("--force", action="store_true", help="overwrite an existing run")
-    add_options(parser, "backend", "quiet")
+    add_options(parser, "backend", "quiet", "yes")
 
 
 _OPTIONS = ("preset", "shape", "sensors", "generations", "population", "seed", "terrain",
@@ -79,6 +86,7 @@ _OPTIONS = ("preset", "shape", "sensors", "generations", "population", "seed", "
 
 def run(args: argparse.Namespace) -> int:
     config = configuration(args)
+    check_run_work(config, config.body().shape.n_voxels, args.yes)
     backend = check_backend(args.backend)
     # Locked before the progress bar starts, so that a refusal is the only line printed.
     with RunDirectory(args.out).locked() as run_dir:
@@ -103,6 +111,11 @@ def configuration(args: argparse.Namespace, defaults: dict | None = None, **fixe
     # A run killed before it wrote config.json left an empty directory: resuming it is
     # starting it.
     unborn = run_dir.path.is_dir() and not run_dir.has_run()
+    if args.resume and unborn and not (cli or args.config):
+        # Starting it with the defaults would be another run than the one that was asked.
+        raise bad("resume", str(run_dir.path),
+                  "the run was killed before it saved config.json, so its options are "
+                  "unknown: start it again with them (the same command without --resume)")
     if args.resume and not unborn:
         saved = run_dir.saved_config().to_dict()
         changed = {k: v for k, v in cli.items() if k != "generations" and saved.get(k) != v}

@@ -6,7 +6,9 @@ import argparse
 
 from .._io import check_output_file, make_folder, write_atomic
 from ..errors import bad
+from ..experiments.lock import is_run_folder, lock_if_run
 from ..experiments.origin import origin_of
+from ..experiments.runner import MANIFEST, RUN_FILES
 from ..modules.library import list_library, module_text, provenance_of
 from ..modules.module import cut
 from ..sim.partition import Partition
@@ -53,19 +55,27 @@ def _export(args: argparse.Namespace) -> int:
     out = check_output_file(args.out)
     if not out.name.endswith(".json") or out.name == ".json":
         raise bad("out", args.out, "a module file is named NAME.json (NAME is its library name)")
-    donor = load_genome(args.genome)
-    origin = origin_of(args.genome)
-    partition = Partition.parse(args.partition or origin.modules or "paper", donor.body.shape)
-    module = cut(donor, partition).module(args.module)
-    velocity = args.velocity if args.velocity is not None else origin.validation_velocity
-    provenance = provenance_of(module, donor, partition.grid_string(), str(args.genome), velocity)
-    if origin.source:
-        given = " (given)" if args.velocity is not None else " (its last validation)"
-        print(f"from {origin.source}: partition {partition.grid_string()}, v_x "
-              + ("not recorded" if velocity is None else f"{velocity:.3f} m/s{given}"))
-    text = module_text(module, provenance)
-    make_folder(out.parent)
-    write_atomic(out, text)
+    run_files = (*RUN_FILES, MANIFEST)
+    if out.name in run_files and is_run_folder(out.parent, run_files):
+        raise bad("out", args.out, f"is the {out.name} of the run directory {out.parent}; "
+                  "write the module elsewhere")
+    # Into a run directory, only with its lock: a running run there refuses the command.
+    with lock_if_run(out.parent, run_files):
+        donor = load_genome(args.genome)
+        origin = origin_of(args.genome)
+        partition = Partition.parse(args.partition or origin.modules or "paper",
+                                    donor.body.shape)
+        module = cut(donor, partition).module(args.module)
+        velocity = args.velocity if args.velocity is not None else origin.validation_velocity
+        provenance = provenance_of(module, donor, partition.grid_string(), str(args.genome),
+                                   velocity)
+        if origin.source:
+            given = " (given)" if args.velocity is not None else " (its last validation)"
+            print(f"from {origin.source}: partition {partition.grid_string()}, v_x "
+                  + ("not recorded" if velocity is None else f"{velocity:.3f} m/s{given}"))
+        text = module_text(module, provenance)
+        make_folder(out.parent)
+        write_atomic(out, text)
     print(
         f"module {module.label!r}: {module.size} voxels, {len(module.nodes)} nodes, "
         f"{len(module.edges)} edges -> {out}"

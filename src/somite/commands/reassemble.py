@@ -21,6 +21,7 @@ from .common import (
     add_genome,
     add_options,
     add_simulation_options,
+    check_episodes,
     load_genome,
     option,
     settings_line,
@@ -58,6 +59,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_options(parser, "validation", notes={"validation": "v_x and rho on them; 0: none"})
     add_simulation_options(parser, layered="donor 1's run's")
     parser.add_argument("--draw", action="store_true", help="draw the brain on the body")
+    add_options(parser, "yes")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -72,6 +74,8 @@ def run(args: argparse.Namespace) -> int:
     origin = origin_of(args.donor1)
     config = simulation_config(args, origin)
     preset = option(args, "preset", origin.options())
+    largest = max(genomes, key=lambda g: g.body.shape.n_voxels).body
+    check_episodes(3 * args.validation, config, largest, args.yes, "this reassembly's validation")
     other = origin_of(args.donor2)
     if other.source and other.options() != origin.options():
         warn(args.prog, f"donor 2's {other.source} ran with other settings "

@@ -13,7 +13,14 @@ from ..tasks.backends import check_backend
 from ..tasks.validation import check_count
 from ..tasks.velocity import mean_velocity
 from ._progress import note_compiling
-from .common import add_genome, add_options, load_genome, warn, warn_whole_episode
+from .common import (
+    add_genome,
+    add_options,
+    check_run_work,
+    load_genome,
+    warn,
+    warn_whole_episode,
+)
 from .evolve import add_evolution_options, configuration, progress_bar, summarise
 
 HELP = ("Re-optimise a genome with the EA from it and its mutants (510 generations in the "
@@ -41,6 +48,7 @@ def run(args: argparse.Namespace) -> int:
     origin = origin_of(args.genome)
     inherited = {**origin.options(), **({"terrain": origin.terrain} if origin.terrain else {})}
     config = configuration(args, defaults=inherited, shape=shape, start=str(args.genome))
+    check_run_work(config, genome.body.shape.n_voxels, args.yes, "this re-optimisation")
     backend = check_backend(args.backend)
     # Locked before anything is printed, so that a refusal is the only line.
     with RunDirectory(args.out).locked() as run_dir:

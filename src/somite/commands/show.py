@@ -32,6 +32,7 @@ from .common import (
     settings_line,
     simulation_config,
     warn_whole_episode,
+    whole_int,
 )
 
 DEFAULT_TERRAIN = "hilly-1-10-0"
@@ -48,16 +49,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default=None,
                         help="walk.mp4 or walk.gif (video), strip.png (time-lapse); "
                         "default walk.mp4, or strip.png with --frames")
-    parser.add_argument("--frames", type=int, default=None,
+    parser.add_argument("--frames", type=whole_int("frames"), default=None,
                         help=f"tiles of a .png time-lapse (default {DEFAULT_STRIP_FRAMES})")
     parser.add_argument("--brain", action="store_true", help="draw the controller on the body")
     parser.add_argument("--fps", type=finite_float("fps"), default=30.0,
                         help="video frames per second, at most 60 (30: every other step)")
-    parser.add_argument("--width", type=int, default=None,
+    parser.add_argument("--width", type=whole_int("width"), default=None,
                         help="video width (960) or tile width (320) [px]")
-    parser.add_argument("--height", type=int, default=None,
+    parser.add_argument("--height", type=whole_int("height"), default=None,
                         help="video height (540) or tile height (240) [px]")
-    add_options(parser, "genome")
+    add_options(parser, "yes", "genome")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -71,12 +72,15 @@ def run(args: argparse.Namespace) -> int:
         at_most("frames", args.frames, MAX_FRAMES)
     # Check what can be checked before a simulation that may take a while.
     frame_steps(1, args.fps)
-    frame_size(args.width, args.height, TILE_SIZE if out.suffix.lower() in STRIP_FORMATS
-               else VIDEO_SIZE)
+    strip = out.suffix.lower() in STRIP_FORMATS
+    width, height = frame_size(args.width, args.height, TILE_SIZE if strip else VIDEO_SIZE)
     genome = load_genome(args.genome)
     origin = origin_of(args.genome)
     terrain = args.terrain or origin.fixed_terrain() or DEFAULT_TERRAIN
     config = simulation_config(args, origin)
+    frames = (args.frames or DEFAULT_STRIP_FRAMES) if strip else len(
+        frame_steps(config.n_steps, args.fps))
+    _check_drawing(out, frames, width * height, config, genome.body, args.yes)
     print(settings_line(args, config, origin, terrain))
     note_compiling()
     recording = record_episode(genome.body, genome, terrain, config, args.seed)
@@ -94,3 +98,16 @@ def run(args: argparse.Namespace) -> int:
     warn_whole_episode(args.prog, config)  # last: a caveat on the result
     return 0
 
+
+
+def _check_drawing(out, frames: int, pixels: int, config, body, yes: bool) -> None:
+    """Refuse a drawing that would take more than the budget's hours (simulating and drawing
+    every frame) or whose held frames (a GIF's, a strip's tiles) would not fit in memory."""
+    from ..budget import BYTES_PER_HELD_PIXEL, PIXELS_PER_SECOND, check_memory, check_time, hours
+
+    drawing = float(frames) * pixels / PIXELS_PER_SECOND / 3600
+    check_time(f"drawing {out.name}", hours(config.n_steps, body.shape.n_voxels, 1) + drawing,
+               yes)
+    if out.suffix.lower() in (".gif", ".png"):
+        check_memory(f"the {frames} frames of {out.name}",
+                     float(frames) * pixels * BYTES_PER_HELD_PIXEL)

@@ -84,6 +84,8 @@ class GAConfig:
         for name, low in (("population", 2), ("tournament", 1)):
             if getattr(self, name) < low:
                 raise bad(name, getattr(self, name), f"must be at least {low}")
+        # Drawn with replacement, so it may exceed the population, but not without bound.
+        at_most("tournament", self.tournament, MAX_POPULATION)
         if self.seeded_mutants not in SEEDED_MUTANTS:
             raise bad("seeded_mutants", self.seeded_mutants, f"use one of {SEEDED_MUTANTS}")
 

@@ -33,7 +33,7 @@ import numpy as np
 from ..brain.genome import Edge, Genome, Node, body_table, next_id
 from ..brain.kinds import ACTUATOR, HIDDEN, SENSOR
 from ..errors import bad
-from ..limits import MAX_OMEGA, at_most
+from ..limits import MAX_OMEGA, MAX_OPERATOR_WEIGHT, MAX_SIGMA, at_most
 from ..sim.body import Body
 from ..sim.partition import Partition
 
@@ -84,12 +84,15 @@ class OperatorConfig:
                 raise bad(f.name, value, "must be a number")
             if not math.isfinite(value):
                 raise bad(f.name, value, "must be finite")
-            if f.name.startswith("p_") and value < 0:
-                raise bad(f.name, value, "probabilities must be >= 0")
+            if f.name.startswith("p_") and not 0 <= value <= MAX_OPERATOR_WEIGHT:
+                # Relative weights; bounded so that their sum stays a number.
+                raise bad(f.name, value,
+                          f"probabilities must be in [0, {MAX_OPERATOR_WEIGHT:g}]")
         if sum(self.probabilities) <= 0:
             raise bad("p_mutate_edge", self.p_mutate_edge, "at least one probability must be > 0")
         if self.sigma < 0:
             raise bad("sigma", self.sigma, "must be >= 0")
+        at_most("sigma", self.sigma, MAX_SIGMA)
         if self.omega <= 0:
             raise bad("omega", self.omega, "must be > 0")
         # Beyond it the operators' weight sums overflow to inf and the draws go wrong.

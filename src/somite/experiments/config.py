@@ -84,7 +84,8 @@ class RunConfig:
         at_most("generations", self.generations, MAX_GENERATIONS)
         at_most("evaluations", self.evaluations, MAX_EVALUATIONS)
         parse_distribution(self.terrain)
-        self.body()  # validates shape and sensors before any run starts
+        body = self.body()  # validates shape and sensors before any run starts
+        self.ga.partition(body.shape)  # and the partition omega uses, for that shape
         self.task()  # validates duration and transient
 
     def body(self) -> Body:

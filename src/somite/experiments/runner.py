@@ -13,12 +13,15 @@ A run directory holds
   holding anything else;
 - ``.somite.lock``, while the run goes on (:mod:`somite.experiments.lock`).
 
-``--resume`` cuts ``log.csv`` and ``bests.jsonl`` back to the checkpoint's generation and goes
-on from there; as every random draw comes from the checkpointed generators, the resumed run
-writes the same rows and the same best genome as one that was never interrupted. A run killed
-before its first checkpoint (during generation 0, or before it wrote ``config.json``) starts
-again on ``--resume``, which for a seeded run is the same thing; temporary files of writes a
-kill cut short are removed. ``--resume --generations N`` rewrites ``config.json`` with N.
+``--resume`` first checks the whole history (:mod:`.history`: every row and line readable,
+generations consecutive from 0, the checkpoint consistent with the log and ``config.json``) and
+refuses a damaged one in one line; then it cuts ``log.csv`` and ``bests.jsonl`` back to the
+checkpoint's generation and goes on from there; as every random draw comes from the
+checkpointed generators, the resumed run writes the same rows and the same best genome as one
+that was never interrupted. A run killed before its first checkpoint (during generation 0)
+starts again on ``--resume``, which for a seeded run is the same thing (one killed before it
+wrote ``config.json`` needs its options again); temporary files of writes a kill cut short are
+removed. ``--resume --generations N`` rewrites ``config.json`` with N.
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ from ..errors import bad
 from ..evolution.ea import GraphEA
 from ..sim.body import Body, Shape
 from .config import RunConfig, resolve
+from .history import History, check_checkpoint, read_history
 from .lock import LOCK_NAME, RunLock
 from .logfile import LOG_COLUMNS, format_row
 
@@ -215,7 +219,7 @@ class RunDirectory:
         log = self.file("log.csv")
         if not log.is_file():
             return 0
-        lines = log.read_text(encoding="utf-8").splitlines()
+        lines = read_text(log, "log").splitlines()
         return max(0, sum(1 for line in lines[1:] if line.count(",") == len(LOG_COLUMNS) - 1))
 
     def prepare_new(self, config: RunConfig, force: bool, restart: bool = False) -> None:
@@ -250,32 +254,17 @@ class RunDirectory:
             raise bad("config", str(path), f"expected a JSON object, not {type(data).__name__}")
         return resolve(data)
 
-    def cut_back(self, generation: int) -> None:
-        """Drop log rows and best genomes written after ``generation`` (and torn lines)."""
-        rows = []
-        log = self.file("log.csv")
-        if log.is_file():
-            for row in csv.DictReader(io.StringIO(log.read_text())):
-                try:
-                    if int(row["generation"]) <= generation and None not in row.values():
-                        rows.append(row)
-                except (TypeError, ValueError):
-                    break
+    def cut_back(self, generation: int, history: History) -> None:
+        """Keep the log rows and best genomes up to ``generation`` (``history``, checked by
+        :func:`~.history.read_history`): the rest the resumed run writes again."""
         out = io.StringIO()
         writer = csv.DictWriter(out, LOG_COLUMNS, lineterminator="\n")
         writer.writeheader()
-        writer.writerows(rows)
-        write_atomic(log, out.getvalue())
-        kept = []
-        bests = self.file("bests.jsonl")
-        if bests.is_file():
-            for line in bests.read_text().splitlines():
-                try:
-                    if json.loads(line)["generation"] <= generation:
-                        kept.append(line)
-                except (ValueError, KeyError, TypeError):
-                    break
-        write_atomic(bests, "".join(line + "\n" for line in kept))
+        writer.writerows(history.rows[: generation + 1])
+        write_atomic(self.file("log.csv"), out.getvalue())
+        kept = history.bests[: generation + 1]
+        write_atomic(self.file("bests.jsonl"),
+                     "".join(json.dumps(e, separators=(",", ":")) + "\n" for e in kept))
 
     def append(self, row: dict, best: Genome) -> None:
         """Write a generation's log row and its best genome."""
@@ -358,8 +347,9 @@ def open_run(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool
                           f"no checkpoint.json, but log.csv holds {logged} generations")
             resume, restart = False, True
     if resume:
-        ea = load_checkpoint(run_dir.file("checkpoint.json"), config,
-                             run_dir.logged_generations())
+        history = read_history(run_dir.path)
+        ea = load_checkpoint(run_dir.file("checkpoint.json"), config, len(history.rows))
+        check_checkpoint(history, ea, config.ga.population, run_dir.file("checkpoint.json"))
         if ea.generation > config.generations:
             raise bad("generations", config.generations,
                       f"the checkpoint is at generation {ea.generation} already")
@@ -371,7 +361,7 @@ def open_run(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool
         ea = GraphEA(body, seed=config.seed, start=start, config=config.ga)
     config.task(ea.body)  # refuses a body the task cannot run before any file is touched
     if resume:
-        run_dir.cut_back(ea.generation)
+        run_dir.cut_back(ea.generation, history)
         if run_dir.saved_config() != config:  # --resume --generations N
             run_dir.write_config(config)
     else:

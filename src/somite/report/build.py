@@ -37,6 +37,7 @@ def build_report(campaign_dir: str | Path, out: str | Path, validation: int = 10
     out = check_output_folder(out)
     stage("reading the campaign")
     campaign = read_campaign(campaign_dir)
+    check_apart(campaign_dir, out)
     loaded = load(campaign)
     folder = out / "figures"
     folder.mkdir(parents=True, exist_ok=True)
@@ -71,6 +72,24 @@ def build_report(campaign_dir: str | Path, out: str | Path, validation: int = 10
     if html is not None:
         write_atomic(out / "index.html", html)
     return report
+
+
+def check_apart(campaign_dir: str | Path, out: str | Path) -> None:
+    """Refuse a report folder ``out`` that is the campaign folder or inside it (the report
+    would write over a task's files: a reassembly's report.json), or one whose ``figures/``
+    or ``cache/`` holds the campaign folder; both paths resolved, symbolic links followed."""
+    from ..errors import bad
+
+    campaign = Path(campaign_dir).resolve()
+    folder = Path(out).resolve()
+    if folder == campaign or campaign in folder.parents:
+        raise bad("out", str(out), f"is the campaign folder {campaign_dir} or inside it (the "
+                  "report would write over its files); give a report folder outside it")
+    for name in ("figures", "cache"):
+        mine = folder / name
+        if campaign == mine or mine in campaign.parents:
+            raise bad("out", str(out), f"holds the campaign folder {campaign_dir} in its "
+                      f"{name}/, which the report writes; give another report folder")
 
 
 def _validation_rows(campaign, loaded, reruns: dict) -> list[dict]:

@@ -37,8 +37,10 @@ PRESET_SHAPES = {
     "worm": "111111/111111",
 }
 
-_RECT = re.compile(r"^(\d+)x(\d+)$")
+_RECT = re.compile(r"^([0-9]+)x([0-9]+)$")
 _GRID = re.compile(r"^[01]+(/[01]+)*$")
+_MAX_DIGITS = 30
+"""The most digits of W or H in ``WxH`` that are read (any more is refused unread)."""
 
 
 @dataclass(frozen=True)
@@ -84,6 +86,10 @@ class Shape:
         spec = PRESET_SHAPES.get(spec, spec)
         match = _RECT.match(spec)
         if match:
+            if max(len(match.group(1)), len(match.group(2))) > _MAX_DIGITS:
+                # Not read: int() of thousands of digits is a ValueError (Python's limit).
+                raise bad("shape", text, f"at most {MAX_SHAPE_SIDE} voxels a side "
+                          "(somite.limits)")
             width, height = int(match.group(1)), int(match.group(2))
             if width < 1 or height < 1:
                 raise bad("shape", text, "a rectangle needs a positive width and height")

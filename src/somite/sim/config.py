@@ -96,6 +96,7 @@ class SimConfig:
         at_most("duration", self.duration, MAX_DURATION)
         if self.transient < 0:
             raise bad("transient", self.transient, "must be zero or positive")
+        at_most("transient", self.transient, MAX_DURATION)
         _positive_int(self, "substeps", "velocity_iterations", "position_iterations",
                       "touch_window", "velocity_window")
         for name in ("spring_hz", "lidar_range", "velocity_max", "gravity"):

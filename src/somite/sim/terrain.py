@@ -4,6 +4,19 @@ Names follow the authors' simulator (docs/original-system.md section 1.5; docs/d
 "Terrains"): ``flat``, ``hilly-H-W-SEED``, ``steppy-H-W-SEED``, ``uphill-DEG`` and ``downhill-DEG``.
 ``hilly`` is generated exactly as the authors' code does, with a re-implementation of
 ``java.util.Random``, so that ``hilly-1-10-42`` is the same profile in somite and in the original.
+
+Each terrain has exactly one name (:func:`parse_terrain` refuses any other spelling and says the
+right one), so that names can be compared: a validation terrain cannot be trained on under
+another spelling. The numbers of a name:
+
+- H (height steps) and W (segment or step width) [m]: a decimal number, 0 <= H <= 1000 and
+  0 < W <= 1000, written as the shortest decimal that reads back as the same float, without
+  exponent, sign, leading zeros or trailing zeros: ``1`` not ``1.0`` or ``01``, ``0.5`` not
+  ``.5`` or ``0.50``;
+- SEED: a whole number in [0, 2**63) (a Java long), without leading zeros: ``10000`` not
+  ``010000``;
+- DEG: a decimal like H, 0 <= DEG < 60;
+- no number has more than :data:`MAX_NUMBER_CHARS` characters.
 """
 
 from __future__ import annotations
@@ -194,21 +207,70 @@ def slope(degrees: float, name: str) -> Terrain:
 
 
 def _fmt(value: float) -> str:
-    return str(int(value)) if float(value).is_integer() else str(value)
+    """A number as a terrain name writes it: the shortest decimal that reads back as
+    ``value``, positional (``0.00001``, not ``1e-05``), ``1`` for 1.0."""
+    return np.format_float_positional(float(value), trim="-")
 
 
-_NUMBER = r"(\d+(?:\.\d+)?)"
+MAX_SIZE = 1000.0
+"""The largest H and W [m] of a hilly or steppy terrain."""
+MAX_SLOPE = 60.0
+"""Slopes are under this many degrees."""
+MAX_SEED = 2**63
+"""SEED is below this (a Java long)."""
+MAX_NUMBER_CHARS = 30
+"""The most characters of one number in a terrain name (checked before it is read)."""
+
+_NUMBER = r"([0-9]+(?:\.[0-9]+)?)"
 _PATTERNS = {
-    "hilly": re.compile(rf"^hilly-{_NUMBER}-{_NUMBER}-(\d+)$"),
-    "steppy": re.compile(rf"^steppy-{_NUMBER}-{_NUMBER}-(\d+)$"),
+    "hilly": re.compile(rf"^hilly-{_NUMBER}-{_NUMBER}-([0-9]+)$"),
+    "steppy": re.compile(rf"^steppy-{_NUMBER}-{_NUMBER}-([0-9]+)$"),
     "uphill": re.compile(rf"^uphill-{_NUMBER}$"),
     "downhill": re.compile(rf"^downhill-{_NUMBER}$"),
 }
-TERRAIN_HELP = "flat, hilly-H-W-SEED, steppy-H-W-SEED, uphill-DEG or downhill-DEG"
+TERRAIN_HELP = ("flat, hilly-H-W-SEED, steppy-H-W-SEED, uphill-DEG or downhill-DEG (H, W in m, "
+                "0 <= H <= 1000, 0 < W <= 1000, 0 <= DEG < 60, each written as the shortest "
+                "decimal: 1 not 1.0, 10000 not 010000)")
+
+
+def _read(part: str, text: str, what: str, whole: bool = False) -> tuple[float | int, str]:
+    """The value of the number ``part`` (``what``, e.g. ``H``) of the name ``text``, and its
+    one spelling; a one-line error when it is longer than :data:`MAX_NUMBER_CHARS`."""
+    if len(part) > MAX_NUMBER_CHARS:
+        raise bad("terrain", text, f"{what} has more than {MAX_NUMBER_CHARS} characters")
+    if whole:
+        value = int(part)
+        return value, str(value)
+    value = float(part)
+    return value, _fmt(value)
+
+
+def read_sizes(text: str, height: str, width: str) -> tuple[float, float, str]:
+    """H and W [m] of the hilly or steppy name (or distribution) ``text``, given as the strings
+    ``height`` and ``width``, and their one spelling ``H-W``; a one-line error when they are
+    out of bounds (see the module's docstring)."""
+    h, h_text = _read(height, text, "H")
+    w, w_text = _read(width, text, "W")
+    if not h <= MAX_SIZE:
+        raise bad("terrain", text, f"the height H must be at most {MAX_SIZE:g} m")
+    if not w > 0:
+        raise bad("terrain", text, "the step width W must be positive")
+    if not w <= MAX_SIZE:
+        raise bad("terrain", text, f"the step width W must be at most {MAX_SIZE:g} m")
+    return h, w, f"{h_text}-{w_text}"
+
+
+def canonical(text: str, name: str, spelled: str) -> None:
+    """Refuse ``name`` (read from ``text``) unless it is ``spelled``, the one spelling of its
+    terrain: ``terrain='hilly-1.0-10-5': write it hilly-1-10-5``."""
+    if name != spelled:
+        raise bad("terrain", text, f"write it {spelled}")
 
 
 def parse_terrain(text: str) -> Terrain:
-    """Build a terrain from its name; raises a one-line error for anything else."""
+    """Build a terrain from its name (the grammar is in the module's docstring); raises a
+    one-line error for anything else, naming the one spelling of a terrain spelled
+    another way."""
     name = str(text).strip()
     if name == "flat":
         return flat()
@@ -216,17 +278,17 @@ def parse_terrain(text: str) -> Terrain:
         match = pattern.match(name)
         if not match:
             continue
-        numbers = [float(g) for g in match.groups()]
         if kind in ("hilly", "steppy"):
-            height, width, _ = numbers
-            if width <= 0:
-                raise bad("terrain", text, "the step width W must be positive")
-            if int(match.group(3)) >= 2**63:
+            height, width, sizes = read_sizes(text, match.group(1), match.group(2))
+            seed, seed_text = _read(match.group(3), text, "SEED", whole=True)
+            if seed >= MAX_SEED:
                 raise bad("terrain", text, "SEED must be below 2**63 (a Java long)")
+            canonical(text, name, f"{kind}-{sizes}-{seed_text}")
             build = hilly if kind == "hilly" else steppy
-            return build(height, width, int(match.group(3)))
-        degrees = numbers[0]
-        if not degrees < 60:
-            raise bad("terrain", text, "slopes must be under 60 degrees")
+            return build(height, width, seed)
+        degrees, degrees_text = _read(match.group(1), text, "DEG")
+        if not degrees < MAX_SLOPE:
+            raise bad("terrain", text, f"slopes must be under {MAX_SLOPE:g} degrees")
+        canonical(text, name, f"{kind}-{degrees_text}")
         return slope(degrees if kind == "uphill" else -degrees, name)
     raise bad("terrain", text, f"unknown terrain; use {TERRAIN_HELP}")

@@ -9,7 +9,9 @@
   on average, 95% of segments under 11 degrees), so a slope run asks for nothing a hilly run
   does not meet.
 
-Validation terrains (``hilly-1-10-10000`` on) lie outside every training distribution.
+Validation terrains (``hilly-1-10-10000`` on) lie outside every training distribution. H and W
+follow the terrain names' grammar (:mod:`somite.sim.terrain`): one spelling each, ``hilly-1-10-rnd``
+and not ``hilly-1.0-10-rnd``, so that a fixed terrain's name is its terrain's one name too.
 """
 
 from __future__ import annotations
@@ -21,16 +23,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import bad
-from ..sim.terrain import TERRAIN_HELP, Terrain, hilly, parse_terrain, slope, steppy
+from ..sim.terrain import (
+    TERRAIN_HELP,
+    Terrain,
+    canonical,
+    hilly,
+    parse_terrain,
+    read_sizes,
+    slope,
+    steppy,
+)
 
 N_TRAINING_SEEDS = 10000
 """Random hilly and steppy terrains use SEED in [0, 10000), as the original does."""
 MAX_SLOPE_DEG = 10.0
 SLOPE_STEP_DEG = 0.5
-DISTRIBUTION_HELP = ("flat, hilly-H-W-rnd, steppy-H-W-rnd, uphill-rnd, downhill-rnd, or one "
-                     f"fixed terrain ({TERRAIN_HELP})")
+DISTRIBUTION_HELP = ("hilly-H-W-rnd, steppy-H-W-rnd, uphill-rnd, downhill-rnd, or one fixed "
+                     f"terrain: {TERRAIN_HELP}")
 
-_NUMBER = r"(\d+(?:\.\d+)?)"
+_NUMBER = r"([0-9]+(?:\.[0-9]+)?)"
 _SEEDED = re.compile(rf"^(hilly|steppy)-{_NUMBER}-{_NUMBER}-rnd$")
 _SLOPED = re.compile(r"^(uphill|downhill)-rnd$")
 
@@ -87,17 +98,18 @@ def parse_distribution(text: str) -> TerrainDistribution:
     name = str(text).strip()
     match = _SEEDED.match(name)
     if match:
-        kind, height, width = match.group(1), float(match.group(2)), float(match.group(3))
-        if width <= 0:
-            raise bad("terrain", text, "the step width W must be positive")
+        kind = match.group(1)
+        height, width, sizes = read_sizes(text, match.group(2), match.group(3))
+        canonical(text, name, f"{kind}-{sizes}-rnd")
         return TerrainDistribution(name, kind, height, width)
     match = _SLOPED.match(name)
     if match:
         return TerrainDistribution(name, match.group(1))
     if name.endswith("-rnd"):
         raise bad("terrain", text, f"unknown terrain distribution; use {DISTRIBUTION_HELP}")
-    parse_terrain(name)  # a fixed terrain: refuse a bad name now, not at the first evaluation
-    return TerrainDistribution(name, "fixed")
+    # A fixed terrain: refuse a bad name now, not at the first evaluation. Its name is the
+    # terrain's one name, which the task compares with the validation terrains'.
+    return TerrainDistribution(parse_terrain(name).name, "fixed")
 
 
 __all__ = ["DISTRIBUTION_HELP", "N_TRAINING_SEEDS", "TerrainDistribution", "parse_distribution"]

@@ -287,7 +287,7 @@ def test_toml_seed_and_empty_shape_lists_are_refused(tmp_path, capsys):
     [
         (["evolve", "--out", ""], "out='': is empty"),
         (["draw", "genome.json", "--out", ""], "out='': is empty"),
-        (["evolve", "--modules", "x", "--out", "run"], "partition='x'"),  # omega 1: not used
+        (["evolve", "--modules", "x", "--out", "run"], "modules='x'"),  # omega 1: not used
         (["evolve", "--omega", "1e308", "--out", "run"], "omega=1e+308: must be at most"),
         (["simulate", "--terrain", "hilly-1-10-" + "9" * 400], "characters)"),  # cut short
         (["evolve", "--out", "/proc/somite-test"], "cannot write in /proc"),

@@ -12,28 +12,68 @@ TEMPORARY = re.compile(r"\.(?P<name>.+)\.\d+\.[0-9a-f]{8}\.tmp")
 """The name of :func:`write_atomic`'s temporary file: ``.NAME.PID.RAND.tmp``."""
 
 
-def write_atomic(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
+def temporary_name(name: str) -> str:
+    """The name of :func:`write_atomic`'s temporary file beside the file ``name``."""
+    return f".{name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
+
+
+def write_atomic(path: str | os.PathLike, text: str, field: str = "out") -> Path:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename.
+
+    Any OSError (creating, writing, flushing or renaming: a full disk, a read-only or immutable
+    target, a folder that went away, a name too long) is a one-line error naming ``field``
+    and the OS's reason; the temporary file is removed and the old ``path`` left as it was."""
     path = Path(path)
+    data = text.encode("utf-8")
     # Not tempfile.mkstemp: its files are private (0600); os.open with 0666 honours the umask.
-    tmp = path.parent / f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
+    tmp = path.parent / temporary_name(path.name)
     try:
         handle = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     except OSError as error:
-        raise _cannot_write(path, error) from None
+        raise _cannot_write(path, error, field) from None
     try:
-        with os.fdopen(handle, "w", encoding="utf-8") as out:
-            out.write(text)
-            out.flush()
-            os.fsync(out.fileno())
+        try:
+            _write_all(handle, data)
+            os.fsync(handle)
+        finally:
+            os.close(handle)
         os.replace(tmp, path)
     except BaseException as error:
         # Never leave a half-written temp file beside the real ones.
-        tmp.unlink(missing_ok=True)
+        discard(tmp)
         if isinstance(error, OSError):  # a full disk, a folder that went away, ...
-            raise _cannot_write(path, error) from None
+            raise _cannot_write(path, error, field) from None
         raise
     return path
+
+
+def _write_all(handle: int, data: bytes) -> None:
+    """``os.write`` until all of ``data`` is written (a write may take only part of it)."""
+    view = memoryview(data)
+    while view:
+        written = os.write(handle, view)
+        if written <= 0:  # no progress and no error: treat as a full disk, not a hang
+            import errno
+
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        view = view[written:]
+
+
+def discard(path: Path) -> None:
+    """Delete ``path`` if it is there, quietly: called while another error is on its way."""
+    try:
+        path.unlink(missing_ok=True)
+    except OSError:
+        pass
+
+
+def reason(error: OSError) -> str:
+    """An OSError's reason in a few words, on one line: its strerror (``No space left on
+    device``), else the first line of its message (a library's, that may hold many)."""
+    if error.strerror:
+        return error.strerror
+    lines = str(error).strip().splitlines()
+    return lines[0] if lines else type(error).__name__
 
 
 def remove_temporary(folder: str | os.PathLike) -> None:
@@ -48,10 +88,10 @@ def remove_temporary(folder: str | os.PathLike) -> None:
             path.unlink(missing_ok=True)
 
 
-def _cannot_write(path: Path, error: OSError):
+def _cannot_write(path: Path, error: OSError, field: str = "out"):
     from .errors import bad
 
-    return bad("out", str(path), f"cannot write it ({error.strerror or error})")
+    return bad(field, str(path), f"cannot write it ({reason(error)})")
 
 
 def make_folder(path: str | os.PathLike, field: str = "out") -> Path:
@@ -105,12 +145,73 @@ def _check_creatable(path: Path, field: str) -> None:
     _try_writing(above, field, path)
 
 
-def check_output_folder(path: str | os.PathLike, field: str = "out") -> Path:
-    """An output folder that exists (writable) or can be created, or a one-line error;
-    checked before any work, so that no run ends in a traceback when it saves."""
+def _limits(path: Path) -> tuple[int, int]:
+    """NAME_MAX and PATH_MAX of the file system ``path`` is (or would be created) on, from
+    its nearest existing folder; 255 and 4096 (Linux's) where the system does not say, 0
+    where it sets no limit."""
+    for candidate in (path, *path.parents):
+        try:
+            os.lstat(candidate)
+        except OSError:  # missing, or itself too long: look further up
+            continue
+        try:
+            limits = os.pathconf(candidate, "PC_NAME_MAX"), os.pathconf(candidate, "PC_PATH_MAX")
+        except (OSError, ValueError, AttributeError):  # a dangling link, no pathconf
+            break
+        return tuple(max(0, limit or 0) for limit in limits)
+    return 255, 4096
+
+
+def check_path_length(path: str | os.PathLike, field: str = "out",
+                      temporary: bool = False) -> Path:
+    """Refuse, in one line, a path the system would refuse as too long (ENAMETOOLONG): a name
+    in it longer than the file system's NAME_MAX, or the whole longer than PATH_MAX; with
+    ``temporary``, counting the temporary file a write puts beside the file
+    (:func:`temporary_name`, the longest the writers use)."""
     from .errors import bad
 
     path = Path(path)
+    name_max, path_max = _limits(path)
+    extra = 0
+    if temporary:
+        name = len(os.fsencode(path.name))
+        extra = len(os.fsencode(temporary_name(path.name))) - name
+        if name_max and name + extra > name_max:
+            raise bad(field, str(path), f"its name is too long for the file system ({name} "
+                      f"bytes, and the temporary file written beside it adds {extra}; at most "
+                      f"{name_max - extra})")
+    for part in path.parts:
+        size = len(os.fsencode(part))
+        if name_max and size > name_max and part != path.anchor:
+            raise bad(field, str(path), f"a name in it is too long for the file system "
+                      f"({size} bytes; at most {name_max})")
+    whole = len(os.fsencode(str(path))) + extra
+    if path_max and whole >= path_max:
+        counted = " with the temporary file" if extra else ""
+        raise bad(field, str(path), f"the path is too long for the system ({whole} bytes"
+                  f"{counted}; at most {path_max - 1})")
+    return path
+
+
+def _cannot_check(path: Path, field: str, error: OSError):
+    from .errors import bad
+
+    return bad(field, str(path), f"cannot use it ({reason(error)})")
+
+
+def check_output_folder(path: str | os.PathLike, field: str = "out") -> Path:
+    """An output folder that exists (writable) or can be created, or a one-line error;
+    checked before any work, so that no run ends in a traceback when it saves."""
+    path = check_path_length(path, field)
+    try:
+        return _check_output_folder(path, field)
+    except OSError as error:  # a folder above that cannot be searched, ...
+        raise _cannot_check(path, field, error) from None
+
+
+def _check_output_folder(path: Path, field: str) -> Path:
+    from .errors import bad
+
     if path.is_symlink() and not path.exists():
         raise bad(field, str(path), "is a dangling symbolic link")
     if path.exists():
@@ -125,18 +226,32 @@ def check_output_folder(path: str | os.PathLike, field: str = "out") -> Path:
 
 
 def check_output_file(path: str | os.PathLike, field: str = "out") -> Path:
-    """An output file that can be written (replaced, if it exists), or a one-line error."""
+    """An output file that can be written (replaced, if it exists), or a one-line error: a
+    folder, a special file, a dangling link, a folder that cannot be written in or created,
+    an existing file that is read-only (or immutable: it is not replaced), a name too long."""
+    path = check_path_length(path, field, temporary=True)
+    try:
+        return _check_output_file(path, field)
+    except OSError as error:
+        raise _cannot_check(path, field, error) from None
+
+
+def _check_output_file(path: Path, field: str) -> Path:
     from .errors import bad
 
-    path = Path(path)
     if path.is_symlink() and not path.exists():
         raise bad(field, str(path), "is a dangling symbolic link")
     if path.is_dir():
         raise bad(field, str(path), "is a folder; give the file to write")
     if path.exists() and not path.is_file():
         raise bad(field, str(path), "exists and is not a regular file")
+    if path.is_file() and not os.access(path, os.W_OK):
+        # os.replace would replace a read-only file (the folder decides), but not an
+        # immutable one; either way its owner asked for it to be kept.
+        raise bad(field, str(path), "exists and is read-only; it is not replaced (make it "
+                  "writable, or give another file)")
     if path.parent.exists():
-        check_output_folder(path.parent, field)
+        _check_output_folder(path.parent, field)
     else:
         _check_creatable(path.parent, field)
     return path

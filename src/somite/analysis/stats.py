@@ -263,8 +263,9 @@ def run_statistics(
 ) -> dict:
     """What ``somite plot`` writes as JSON: per group the final ``column`` of every run and its
     summary, the pairwise two-sided Mann-Whitney tests (each with its ``caveat``, null unless
-    a group is smaller than :data:`MIN_GROUP_SIZE`), and the runs whose v_x was measured over
-    the whole episode (:func:`measures_whole_episode`).
+    a group is smaller than :data:`MIN_GROUP_SIZE`), the runs whose v_x was measured over
+    the whole episode (:func:`measures_whole_episode`) and, as ``left_out``, the runs whose
+    final ``column`` is NaN or infinite, which no group's numbers count (:func:`final_values`).
 
     NaN (an empty group or a failed test) is written as null by :func:`to_json`.
     """
@@ -285,6 +286,9 @@ def run_statistics(
         # v_x over [0, duration] is not v_x over [transient, duration]: named, not hidden.
         "whole_episode_runs": [str(run.path) for runs in groups.values() for run in runs
                                if measures_whole_episode(run.config)],
+        # A run whose last best is NaN is in no box and no test: named, not dropped unseen.
+        "left_out": [str(run.path) for runs in groups.values() for run in runs
+                     if not math.isfinite(run.final(column))],
     }
 
 

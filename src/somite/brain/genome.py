@@ -2,8 +2,9 @@
 
 A node is a SENSOR (one scalar reading of its voxel), a HIDDEN node or an ACTUATOR (its voxel's
 actuator); an edge u -> v carries a weight and a bias (docs/original-system.md sections 4.1, 3).
-Nodes have stable integer ids; positions in the tuples mean nothing to the controller, which
-updates all nodes synchronously. The genome is immutable: operators build new ones.
+Nodes have stable integer ids in [0, 2**63) (:data:`MAX_NODE_ID` at most); positions in the
+tuples mean nothing to the controller, which updates all nodes synchronously. The genome is
+immutable: operators build new ones.
 
 File format (JSON, strict: no NaN or Infinity)::
 
@@ -20,13 +21,14 @@ from __future__ import annotations
 import functools
 import json
 import os
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 
-from .._io import read_text, write_atomic
+from .._io import parse_json, read_json, write_atomic
 from ..errors import bad
 from ..limits import MAX_WEIGHT
 from ..sim.body import Body
@@ -211,7 +213,9 @@ class Genome:
     @classmethod
     def from_compact(cls, text: str) -> Genome:
         """Read the output of :meth:`to_compact` (or any genome JSON text)."""
-        return cls.from_dict(_parse_json(text, "genome"))
+        if not isinstance(text, (str, bytes, bytearray)):
+            raise bad("genome", type(text).__name__, "expected JSON text")
+        return cls.from_dict(parse_json(text, "genome", text))
 
     def save(self, path: str | os.PathLike) -> Path:
         """Write the genome as JSON; atomic (temp file in the same folder, then rename)."""
@@ -221,12 +225,28 @@ class Genome:
     @classmethod
     def load(cls, path: str | os.PathLike) -> Genome:
         """Read a genome file written by :meth:`save`."""
-        return cls.from_dict(_parse_json(read_text(path, "genome"), "genome", str(path)))
+        return cls.from_dict(read_json(path, "genome"))
+
+
+MAX_NODE_ID = 2**63 - 1
+"""The largest node id (ids are in [0, 2**63), the range of the int64 arrays they are kept in)."""
 
 
 def next_id(genome: Genome) -> int:
-    """A fresh node id for a new hidden node: the largest id plus one."""
-    return max((n.id for n in genome.nodes), default=-1) + 1
+    """A fresh node id for a new hidden node: the largest id plus one (see :func:`fresh_ids`)."""
+    return fresh_ids(genome.position, 1)[0]
+
+
+def fresh_ids(used: Iterable[int], count: int) -> list[int]:
+    """``count`` node ids not in ``used``: the ones just above the largest used id or, when
+    those would pass :data:`MAX_NODE_ID` (the largest is a valid id, so one plus it may not
+    fit), the smallest unused ones. Every valid genome can grow, and no id overflows."""
+    used = set(used)
+    largest = max(used, default=-1)
+    if largest + count <= MAX_NODE_ID:
+        return list(range(largest + 1, largest + 1 + count))
+    free = (i for i in range(len(used) + count) if i not in used)
+    return [next(free) for _ in range(count)]
 
 
 # -- validation ---------------------------------------------------------------------------------
@@ -347,7 +367,7 @@ def _check_nodes(nodes, table: BodyTable):
     for i, node in enumerate(nodes):
         if not isinstance(node, Node):
             raise bad(f"nodes[{i}]", node, "expected a Node")
-        if not _is_int(node.id) or not 0 <= node.id < 2**63:
+        if not _is_int(node.id) or not 0 <= node.id <= MAX_NODE_ID:
             raise bad(f"nodes[{i}].id", node.id, "node ids must be integers in [0, 2**63)")
         if node.id in position:
             raise bad(f"nodes[{i}].id", node.id, "node ids must be unique")
@@ -441,21 +461,6 @@ def _node_dict(node: Node) -> dict:
     return out
 
 
-def _parse_json(text: str, field: str, where: str | None = None):
-    try:
-        return json.loads(text)
-    except RecursionError:
-        raise bad(field, where if where is not None else str(text)[:40],
-                  "not valid JSON: nested too deeply") from None
-    except (ValueError, TypeError) as error:  # ValueError: an integer of thousands of digits
-        detail = getattr(error, "msg", str(error))
-        position = ""
-        if hasattr(error, "lineno"):
-            position = f" at line {error.lineno} column {error.colno}"
-        value = where if where is not None else str(text)[:40]
-        raise bad(field, value, f"not valid JSON: {detail}{position}") from None
-
-
 def _rows(data: dict, key: str) -> list:
     rows = data.get(key)
     if not isinstance(rows, list):
@@ -486,6 +491,7 @@ def _edge_from(item, i: int) -> Edge:
 __all__ = [
     "ACTUATOR",
     "HIDDEN",
+    "MAX_NODE_ID",
     "NODE_KINDS",
     "SENSOR",
     "BodyTable",
@@ -494,5 +500,6 @@ __all__ = [
     "GenomeIndex",
     "Node",
     "body_table",
+    "fresh_ids",
     "next_id",
 ]

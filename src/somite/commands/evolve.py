@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
+from .._io import check_output_folder
 from ..errors import bad
 from ..evolution.config import GAConfig
 from ..evolution.ea import GraphEA
@@ -105,6 +106,7 @@ def configuration(args: argparse.Namespace, defaults: dict | None = None, **fixe
     the TOML file and the options."""
     cli = {k: getattr(args, k) for k in _OPTIONS if getattr(args, k, None) is not None}
     cli.update(fixed)
+    check_output_folder(args.out)  # a bad --out (too long, a file) before it is looked into
     run_dir = RunDirectory(args.out)
     if args.resume and args.force:
         raise bad("resume", True, "--resume and --force exclude each other")

@@ -37,12 +37,28 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {test['a']} vs {test['b']}: Mann-Whitney U = {test['u']}, p = {p}")
         if test["caveat"]:
             warn(args.prog, small_groups(test))
+    total = sum(len(group["runs"]) for group in stats["groups"].values())
+    left_out = stats["left_out"]
+    if left_out:
+        warn(args.prog, left_out_runs(left_out, total, stats_path(out)))
     whole = stats["whole_episode_runs"]
     if whole:
-        total = sum(group["n"] for group in stats["groups"].values())
         warn(args.prog, f"{len(whole)} of {total} runs had a duration no longer than their "
              f"transient, so v_x is over the whole episode, start-up included (first: {whole[0]})")
     return 0
+
+
+SHOWN_RUNS = 5
+"""The most left-out runs a warning names (stats.json lists them all)."""
+
+
+def left_out_runs(runs: list[str], total: int, stats) -> str:
+    """The warning naming the runs whose final best is NaN or infinite (in no box, no test)."""
+    shown = ", ".join(runs[:SHOWN_RUNS])
+    more = f" and {len(runs) - SHOWN_RUNS} more (listed in {stats})" \
+        if len(runs) > SHOWN_RUNS else ""
+    return (f"{len(runs)} of {total} runs left out: their final best v_x is NaN or infinite, "
+            f"so they are in no box, median or test: {shown}{more}")
 
 
 def small_groups(test: dict) -> str:

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 from .._io import read_toml
-from ..errors import bad
+from ..errors import SomiteError, bad
 from ..evolution.config import GAConfig, check_types
 from ..evolution.operators import OperatorConfig
 from ..limits import MAX_EVALUATIONS, MAX_GENERATIONS, at_most
@@ -85,7 +85,10 @@ class RunConfig:
         at_most("evaluations", self.evaluations, MAX_EVALUATIONS)
         parse_distribution(self.terrain)
         body = self.body()  # validates shape and sensors before any run starts
-        self.ga.partition(body.shape)  # and the partition omega uses, for that shape
+        try:  # and the partition omega uses, for that shape
+            self.ga.partition(body.shape)
+        except SomiteError as error:
+            raise bad("modules", self.ga.modules, str(error).split(": ", 1)[-1]) from None
         self.task()  # validates duration and transient
 
     def body(self) -> Body:

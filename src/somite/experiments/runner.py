@@ -207,12 +207,42 @@ class RunDirectory:
         return None
 
     def remove_own(self) -> None:
-        """Delete the files the manifest lists (and temporary files), nothing else."""
+        """Delete the files the manifest lists (and temporary files), nothing else; all of
+        them or none. A read-only (or immutable) one, or the manifest that is rewritten next,
+        is refused before anything is deleted; then the files are moved aside (renamed to
+        temporary names) and deleted only once all are: one that cannot be moved (the folder's
+        sticky bit, an append-only file, ...) puts the others back, and is a one-line error."""
+        import os
+
+        from .._io import discard, reason, temporary_name
+
+        own = [self.file(n) for n in self.manifest()]
+        own = [p for p in own if p.is_file() and not p.is_symlink()]
+        temporary = [p for p in self.path.iterdir() if _is_temporary(p.name) and p.is_file()]
+        manifest = [self.file(MANIFEST)] if self.file(MANIFEST).is_file() else []
+        for path in (*own, *manifest, *temporary):
+            if not os.access(path, os.W_OK):
+                raise bad("out", str(self.path), f"its {path.name} is read-only (or immutable), "
+                          "so the run cannot be replaced; nothing was deleted: make it writable "
+                          "or move the run away")
         self.remove_temporary()
-        for name in self.manifest():
-            path = self.file(name)
-            if path.is_file() and not path.is_symlink():
-                path.unlink()
+        moved: list[tuple[Path, Path]] = []
+        for path in own:
+            aside = self.file(temporary_name(path.name))
+            try:
+                os.rename(path, aside)
+            except OSError as error:
+                for back, where in reversed(moved):
+                    try:
+                        os.rename(back, where)
+                    except OSError:
+                        pass
+                raise bad("out", str(self.path), f"cannot delete its {path.name} "
+                          f"({reason(error)}), so the run cannot be replaced; nothing was "
+                          "deleted") from None
+            moved.append((aside, path))
+        for aside, _ in moved:
+            discard(aside)  # left only if this fails: a later remove_temporary takes it
 
     def logged_generations(self) -> int:
         """How many complete rows ``log.csv`` holds (0 when it is missing)."""
@@ -267,17 +297,23 @@ class RunDirectory:
                      "".join(json.dumps(e, separators=(",", ":")) + "\n" for e in kept))
 
     def append(self, row: dict, best: Genome) -> None:
-        """Write a generation's log row and its best genome."""
-        with open(self.file("log.csv"), "a", encoding="utf-8") as handle:
-            handle.write(format_row(row) + "\n")
+        """Write a generation's log row and its best genome. A failed append (a full disk)
+        is one line; the torn line it may leave is the run's own, which ``--resume`` repairs."""
         entry = {
             "generation": row["generation"],
             "velocity": _json_number(row["best_velocity"]),
             "operator": row["best_operator"],
             "genome": json.loads(best.to_compact()),
         }
-        with open(self.file("bests.jsonl"), "a", encoding="utf-8") as handle:
-            handle.write(json.dumps(entry, separators=(",", ":")) + "\n")
+        for name, line in (("log.csv", format_row(row)),
+                           ("bests.jsonl", json.dumps(entry, separators=(",", ":")))):
+            try:
+                with open(self.file(name), "a", encoding="utf-8") as handle:
+                    handle.write(line + "\n")
+            except OSError as error:
+                raise bad("out", str(self.path), f"cannot append to its {name} "
+                          f"({error.strerror or error}); --resume continues from the last "
+                          "checkpoint") from None
 
     def save(self, ea: GraphEA, config: RunConfig) -> None:
         ea.best.save(self.file("best.json"))

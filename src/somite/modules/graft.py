@@ -26,7 +26,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 
-from ..brain.genome import Edge, Genome, Node
+from ..brain.genome import Edge, Genome, Node, fresh_ids
 from ..errors import bad
 from ..sim.body import Body
 from .module import Module, Voxel
@@ -221,10 +221,9 @@ def _assign_ids(body: Body, placed: dict, plain: list, kept_edges: list) -> Geno
         if node.id not in taken:
             ids[key] = node.id
             taken.add(node.id)
-    fresh = max(taken, default=-1) + 1
-    for key in [k for k in placed if k not in ids] + plain:
-        ids[key] = fresh
-        fresh += 1
+    pending = [k for k in placed if k not in ids] + plain
+    for key, new in zip(pending, fresh_ids(taken, len(pending))):
+        ids[key] = new
     nodes = [_node(body, key, ids[key]) for key in ids]
     nodes.sort(key=lambda n: n.id)
     edges = tuple(Edge(ids[s], ids[d], e.weight, e.bias) for s, d, e, _ in kept_edges)

@@ -37,6 +37,7 @@ from pathlib import Path
 from .._io import read_json, write_atomic
 from ..brain.genome import Edge, Genome, Node
 from ..errors import SomiteError, bad
+from ..limits import MAX_SHAPE_SIDE
 from ..sim.body import SENSOR_KINDS, Body, Shape, component, is_connected
 from .graft import Graft, graft
 from .module import Module
@@ -181,14 +182,30 @@ def module_from_dict(data, name: str, path: str | None = None) -> LibraryModule:
         ]
     except (KeyError, TypeError, AttributeError) as error:
         raise bad("module", name, f"malformed voxel, node or edge ({error!r})") from None
-    for x, y in voxels:
+    for i, (x, y) in enumerate(voxels):
         if type(x) is not int or type(y) is not int:
-            raise bad("voxels", (x, y), "voxel coordinates are integers")
+            raise bad(f"voxels[{i}]", (x, y), "voxel coordinates are integers")
+    _check_span(voxels)
     for i, node in enumerate(nodes):
         if type(node.x) is not int or type(node.y) is not int:
             raise bad(f"nodes[{i}]", (node.x, node.y), "node coordinates are integers")
-    module = Module(str(data.get("label", name)), tuple(voxels), tuple(sensors), nodes, edges)
-    return LibraryModule(name, module, _provenance_from(data.get("provenance", {})), path)
+    label = data.get("label", name)
+    if not isinstance(label, str):
+        raise bad("label", label, "expected the module's name, a string")
+    provenance = _provenance_from(data.get("provenance", {}))
+    module = Module(label, tuple(voxels), tuple(sensors), nodes, edges)
+    return LibraryModule(name, module, provenance, path)
+
+
+def _check_span(voxels: list) -> None:
+    """Refuse a module wider or taller than any body may be (it could never be placed)."""
+    if not voxels:
+        return  # Module's own check says that a module needs a voxel
+    width = max(x for x, _ in voxels) - min(x for x, _ in voxels) + 1
+    height = max(y for _, y in voxels) - min(y for _, y in voxels) + 1
+    if max(width, height) > MAX_SHAPE_SIDE:
+        raise bad("voxels", f"{width}x{height}",
+                  f"a module spans at most {MAX_SHAPE_SIDE} voxels a side (somite.limits)")
 
 
 def _kinds(value) -> tuple[str, ...]:
@@ -205,26 +222,43 @@ def _list(data: dict, key: str) -> list:
 
 
 def _provenance_from(data) -> Provenance:
+    """The ``provenance`` object, strict: strings where strings belong, ``origin`` two JSON
+    integers, ``donor_velocity`` a finite number or null (JSON's NaN, Infinity and 1e999 are
+    refused, as is an integer too large for a float)."""
     if not isinstance(data, dict):
         raise bad("provenance", data, "expected an object")
-    origin = data.get("origin") or [0, 0]
-    velocity = data.get("donor_velocity")
-    if velocity is not None and (
-        isinstance(velocity, bool) or not isinstance(velocity, (int, float))
-    ):
-        raise bad("provenance.donor_velocity", velocity, "must be a number or null")
-    try:
-        origin = (int(origin[0]), int(origin[1]))
-    except (TypeError, ValueError, IndexError, KeyError):
-        raise bad("provenance.origin", origin, "expected [x, y]") from None
+    origin = data.get("origin", [0, 0])
+    if not (isinstance(origin, list) and len(origin) == 2
+            and all(type(c) is int for c in origin)):
+        raise bad("provenance.origin", origin, "expected [x, y], two integers")
+    donor = data.get("donor")
+    if donor is not None and not isinstance(donor, str):
+        raise bad("provenance.donor", donor, "expected the donor's file name or null")
+    texts = {key: data.get(key, "") for key in ("donor_shape", "module", "partition")}
+    for key, value in texts.items():
+        if not isinstance(value, str):
+            raise bad(f"provenance.{key}", value, "expected a string")
     return Provenance(
-        donor=data.get("donor"),
-        donor_shape=str(data.get("donor_shape", "")),
-        module=str(data.get("module", "")),
-        partition=str(data.get("partition", "")),
-        origin=origin,
-        donor_velocity=None if velocity is None else float(velocity),
+        donor=donor,
+        origin=(origin[0], origin[1]),
+        donor_velocity=_velocity(data.get("donor_velocity")),
+        **texts,
     )
+
+
+def _velocity(value) -> float | None:
+    """``provenance.donor_velocity`` as a float: a finite number, or None for null."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise bad("provenance.donor_velocity", value, "must be a number or null")
+    try:
+        velocity = float(value)
+    except OverflowError:  # an integer of hundreds of digits
+        velocity = math.inf
+    if not math.isfinite(velocity):
+        raise bad("provenance.donor_velocity", value, "must be a finite number or null")
+    return velocity
 
 
 def _node_dict(node: Node) -> dict:
@@ -327,8 +361,8 @@ def assemble(placements: Sequence[Placement]) -> Genome:
     Parameters
     ----------
     placements : sequence of Placement
-        The modules and where their corners go; they may not overlap and their union must be
-        4-connected.
+        The modules and where their corners go; they may not overlap, their union must be
+        4-connected and at most :data:`~somite.limits.MAX_SHAPE_SIDE` voxels a side.
 
     Returns
     -------
@@ -355,8 +389,23 @@ def assemble(placements: Sequence[Placement]) -> Genome:
                 )
             owner[cell] = i
         offsets.append((dx, dy))
+        _check_size(placements, i, owner)
     _check_connected(placements, owner)
     return _build(placements, owner, offsets)
+
+
+def _check_size(placements: Sequence[Placement], i: int, owner: dict) -> None:
+    """Refuse ``place[i]`` when, with the placements before it, the body would be wider or
+    taller than :data:`~somite.limits.MAX_SHAPE_SIDE` (which every other command refuses)."""
+    xs = [x for x, _ in owner]
+    ys = [y for _, y in owner]
+    width, height = max(xs) - min(xs) + 1, max(ys) - min(ys) + 1
+    if max(width, height) > MAX_SHAPE_SIDE:
+        raise bad(
+            f"place[{i}]", placements[i].text,
+            f"the assembled body would span {width}x{height} voxels; at most {MAX_SHAPE_SIDE} "
+            "a side (somite.limits)",
+        )
 
 
 def _check_connected(placements: Sequence[Placement], owner: dict) -> None:

@@ -261,15 +261,56 @@ class Body:
 
     @classmethod
     def from_dict(cls, data: dict) -> Body:
+        """Inverse of :meth:`to_dict`, strict: the shape a string; ``sensors`` a preset name or
+        a list of ``{x, y, kinds}`` whose x and y are JSON integers naming a voxel of the shape,
+        each voxel at most once and each kind at most once in it (voxels not listed get no
+        sensor). A voxel's kinds keep the file's order, which fixes what its slots mean."""
         if not isinstance(data, dict) or "shape" not in data:
             raise bad("body", data, "expected an object with 'shape' and 'sensors'")
+        if not isinstance(data["shape"], str):
+            raise bad("body.shape", data["shape"],
+                      "expected a string: biped, worm, WxH or rows of 1/0")
         shape = Shape.parse(data["shape"])
         sensors = data.get("sensors", "paper")
-        if not isinstance(sensors, (str, list)):
+        if isinstance(sensors, str):
+            return cls.build(shape, sensors)
+        if not isinstance(sensors, list):
             raise bad("body.sensors", sensors, "expected a preset name or a list of {x, y, kinds}")
-        if isinstance(sensors, list):
-            try:
-                sensors = {(int(s["x"]), int(s["y"])): list(s["kinds"]) for s in sensors}
-            except (KeyError, TypeError, ValueError):
-                raise bad("body.sensors", sensors, "expected a list of {x, y, kinds}") from None
-        return cls.build(shape, sensors)
+        per_voxel: dict[tuple[int, int], tuple[str, ...]] = {}
+        filled = set(shape.voxels)
+        for i, item in enumerate(sensors):
+            cell = _sensor_cell(item, i, shape, filled)
+            if cell in per_voxel:
+                raise bad(f"body.sensors[{i}]", cell, "voxel listed twice")
+            per_voxel[cell] = _sensor_kinds(item, i)
+        return cls(shape, tuple(per_voxel.get(v, ()) for v in shape.voxels))
+
+
+def _sensor_cell(item, i: int, shape: Shape, filled: set) -> tuple[int, int]:
+    """The voxel (x, y) of ``body.sensors[i]``: integers (not bool, float, string) in ``shape``."""
+    if not isinstance(item, dict) or not {"x", "y", "kinds"} <= item.keys():
+        raise bad(f"body.sensors[{i}]", item, "expected {x, y, kinds}")
+    for axis in ("x", "y"):
+        value = item[axis]
+        if type(value) is not int:
+            raise bad(f"body.sensors[{i}].{axis}", value, "voxel coordinates are JSON integers")
+    cell = (item["x"], item["y"])
+    if cell not in filled:
+        raise bad(f"body.sensors[{i}]", cell, f"not a voxel of shape {shape.grid_string()}")
+    return cell
+
+
+def _sensor_kinds(item: dict, i: int) -> tuple[str, ...]:
+    """The sensor kinds of ``body.sensors[i]``: known kinds, each once, in the file's order."""
+    kinds = item["kinds"]
+    if not isinstance(kinds, list):
+        raise bad(f"body.sensors[{i}].kinds", kinds, f"expected a list of {SENSOR_KINDS}")
+    for kind in kinds:
+        if not isinstance(kind, str) or kind not in SENSOR_KINDS:
+            raise bad(f"body.sensors[{i}].kinds", kind,
+                      f"unknown sensor kind; use one of {SENSOR_KINDS}")
+    if len(set(kinds)) != len(kinds):
+        twice = next(kind for kind in kinds if kinds.count(kind) > 1)
+        raise bad(f"body.sensors[{i}].kinds", twice, f"voxel {(item['x'], item['y'])} lists "
+                  "this sensor twice")
+    return tuple(kinds)

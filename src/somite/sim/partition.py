@@ -149,12 +149,15 @@ class Partition:
         be for that shape. ``where`` names the source in errors (a file's path)."""
         if not isinstance(data, dict) or data.get("format") != FORMAT:
             raise bad("partition", where, f"not a {FORMAT!r} file")
-        if data.get("version") != VERSION:
+        if type(data.get("version")) is not int or data.get("version") != VERSION:
             raise bad(
                 "partition", where,
                 f"version {data.get('version')!r} unsupported; this somite reads {VERSION}",
             )
-        saved = Shape.parse(data.get("shape", ""))
+        if not isinstance(data.get("shape"), str):
+            raise bad("partition", where, f"shape={data.get('shape')!r}: expected a string "
+                      "of rows of 1/0")
+        saved = Shape.parse(data["shape"])
         if shape is not None:
             shape = Shape.parse(shape) if isinstance(shape, str) else shape
             if shape != saved:
@@ -162,9 +165,11 @@ class Partition:
                     "partition", where,
                     f"is for shape {saved.grid_string()}, not {shape.grid_string()}",
                 )
-        label_of = _labels_of(data.get("modules"), where)
-        if sorted(label_of) != sorted(saved.voxels):
-            raise bad("partition", where, "its modules must cover the shape's voxels exactly")
+        label_of = _labels_of(data.get("modules"), saved, where)
+        if len(label_of) != saved.n_voxels:
+            missing = next(v for v in saved.voxels if v not in label_of)
+            raise bad("partition", where, f"voxel {missing} is in no module; its modules must "
+                      "cover the shape's voxels exactly")
         return cls(saved, tuple(label_of[v] for v in saved.voxels))
 
     def save(self, path: str | os.PathLike, **notes) -> Path:
@@ -219,13 +224,36 @@ class Partition:
         )
 
 
-def _labels_of(modules, where: str) -> dict[tuple[int, int], str]:
-    """Voxel -> label from a file's ``modules`` ({label: [[x, y], ...]})."""
-    try:
-        pairs = [((int(x), int(y)), label) for label, cells in modules.items() for x, y in cells]
-    except (AttributeError, TypeError, ValueError):
-        raise bad("partition", where, "expected modules as {label: [[x, y], ...]}") from None
-    label_of = dict(pairs)
-    if len(label_of) != len(pairs):
-        raise bad("partition", where, "a voxel is in two modules")
+def _labels_of(modules, shape: Shape, where: str) -> dict[tuple[int, int], str]:
+    """Voxel -> label from a file's ``modules`` ({label: [[x, y], ...]}), strict: each cell a
+    pair of JSON integers (not bool, float or string), a voxel of ``shape``, in one module once.
+    Errors name the file, then the cell's place and value."""
+    if not isinstance(modules, dict):
+        raise bad("partition", where, "expected modules as {label: [[x, y], ...]}")
+    filled = set(shape.voxels)
+    label_of: dict[tuple[int, int], str] = {}
+    for label, cells in modules.items():
+        if not isinstance(cells, list) or not cells:
+            raise bad("partition", where,
+                      f"modules[{label!r}]={_shown(cells)}: expected a non-empty list of [x, y]")
+        for j, cell in enumerate(cells):
+            place = f"modules[{label!r}][{j}]={_shown(cell)}"
+            if (not isinstance(cell, list) or len(cell) != 2
+                    or not all(type(c) is int for c in cell)):
+                raise bad("partition", where, f"{place}: a cell is [x, y] with integer x and y")
+            voxel = (cell[0], cell[1])
+            if voxel not in filled:
+                raise bad("partition", where,
+                          f"{place}: not a voxel of shape {shape.grid_string()}")
+            if voxel in label_of:
+                other = label_of[voxel]
+                again = "listed twice in this module" if other == label else (
+                    f"also in module {other!r}")
+                raise bad("partition", where, f"{place}: voxel {again}")
+            label_of[voxel] = label
     return label_of
+
+
+def _shown(value) -> str:
+    """``value`` as an error shows it (cut when long, like :func:`~somite.errors.bad`)."""
+    return str(bad("", value, "")).removeprefix("=").removesuffix(": ")

@@ -16,7 +16,7 @@ contacts back to their places (the soft springs get no position pass); and the c
 step are found. A contact holds its point still when Coulomb friction can, so a robot that does not
 move its voxels stays where it is. Solving the constraints one after the other, not all at once from
 one state, is what makes the welds between voxels and the ground couple neighbouring voxels as in
-the original. The model and its parameters: README, "The simulator"; docs/decisions.md, "The
+the original. The model and its parameters: docs/simulator.md; docs/decisions.md, "The
 simulator"; BENCHMARKS.md, "Fidelity".
 """
 

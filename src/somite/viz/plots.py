@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._io import check_output_file
 from ..analysis.stats import (
     MIN_GROUP_SIZE,
     PairTest,
@@ -73,6 +74,7 @@ def plot_runs(
         ``out_path``.
     """
     out_path = check_output(out_path, PLOT_FORMATS)
+    check_output_file(stats_path(out_path))  # read-only or too long a name: refused now
     if kind not in KINDS:
         raise bad("kind", kind, f"use one of {list(KINDS)}")
     if not run_dirs:
@@ -81,11 +83,13 @@ def plot_runs(
     if kind == "both" and all(len(runs) < 2 for runs in groups.values()):
         kind = "curves"  # a box of one run says nothing: show the curves alone
     figure = _figure(groups, kind, group_by)
-    with atomic_output(out_path) as tmp:
-        figure.savefig(tmp, dpi=110, format=out_path.suffix.lower().lstrip("."))
-    with atomic_output(stats_path(out_path)) as tmp:
-        data = {"group_by": group_by, **run_statistics(groups)}
-        tmp.write_text(to_json(data), encoding="utf-8")
+    data = {"group_by": group_by, **run_statistics(groups)}
+    # Both written before either is renamed: a failed write (a full disk) leaves the old
+    # figure and the old statistics, never a new one beside an old other.
+    with atomic_output(out_path) as tmp_figure:
+        figure.savefig(tmp_figure, dpi=110, format=out_path.suffix.lower().lstrip("."))
+        with atomic_output(stats_path(out_path)) as tmp_stats:
+            tmp_stats.write_text(to_json(data), encoding="utf-8")
     return out_path
 
 

@@ -106,8 +106,9 @@ def test_discovered_partition_is_read_by_every_command_that_takes_one(tmp_path, 
     assert main(["discover", str(biped), "--out", str(tmp_path / "biped-found")]) == 0
     capsys.readouterr()
     wrong = str(tmp_path / "biped-found" / "partition.json")
-    for command in (evolve(wrong, "run2"), ["draw", str(worm), "--partition", wrong]):
+    for command, field in ((evolve(wrong, "run2"), "modules"),
+                           (["draw", str(worm), "--partition", wrong], "partition")):
         assert main(command) == 2
         err = capsys.readouterr().err.strip()
-        assert "error: partition=" in err and "is for shape 1111/1111/1001" in err, err
+        assert f"error: {field}=" in err and "is for shape 1111/1111/1001" in err, err
     assert not (tmp_path / "run2").exists()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import tempfile
@@ -15,6 +16,18 @@ TEMPORARY = re.compile(r"\.(?P<name>.+)\.\d+\.[0-9a-f]{8}\.tmp")
 def temporary_name(name: str) -> str:
     """The name of :func:`write_atomic`'s temporary file beside the file ``name``."""
     return f".{name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
+
+
+def json_safe(value):
+    """``value`` with NaN and infinities as None (JSON's ``null``), in dicts, lists and tuples:
+    what every JSON somite writes goes through (``NaN`` is not JSON)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    return value
 
 
 def write_atomic(path: str | os.PathLike, text: str, field: str = "out") -> Path:

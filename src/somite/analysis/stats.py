@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._io import read_json
+from .._io import json_safe, read_json
 from ..errors import SomiteError, bad
 from ..experiments.logfile import LOG_COLUMNS
 
@@ -311,14 +311,6 @@ def measures_whole_episode(config: Mapping) -> bool:
 
 def to_json(data) -> str:
     """Strict JSON (NaN and infinities become null)."""
-    return json.dumps(_clean(data), indent=2, allow_nan=False) + "\n"
+    return json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n"
 
 
-def _clean(value):
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_clean(v) for v in value]
-    return value

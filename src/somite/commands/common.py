@@ -7,6 +7,7 @@ import json
 import math
 import sys
 
+from .._io import json_safe
 from ..errors import bad
 
 MAX_NUMBER_CHARS = 30
@@ -55,21 +56,10 @@ def whole_int(field: str):
     return parse
 
 
-def _strict(value):
-    """``value`` with NaN and infinities as None (JSON's null), in dicts, lists and tuples."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _strict(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_strict(v) for v in value]
-    return value
-
-
 def print_json(data) -> None:
     """``data`` as strict JSON on stdout: NaN and infinities are ``null`` (the README's promise;
     ``NaN`` is not JSON)."""
-    json.dump(_strict(data), sys.stdout, indent=2, allow_nan=False)
+    json.dump(json_safe(data), sys.stdout, indent=2, allow_nan=False)
     sys.stdout.write("\n")
 
 

@@ -61,7 +61,7 @@ from somite.sim.config import CONTROL_HZ, VOXEL_SIDE, SimConfig, preset  # noqa:
 from somite.sim.system import geometry  # noqa: E402
 from somite.sim.terrain import parse_terrain  # noqa: E402
 from somite.tasks.episode import SETTLE_STEPS  # noqa: E402
-from somite.tasks.locomotion import simulate  # noqa: E402
+from somite.tasks.locomotion import simulate_batch  # noqa: E402
 
 DEFAULT_REFERENCE = Path(__file__).resolve().parents[2] / "shared/reference/closed-loop"
 SECTIONS = ("still", "loops", "init", "sines")
@@ -211,7 +211,7 @@ RECORDED = {"still", "loops", "sines"}
 
 
 def run_cells(cells: list[Cell], config: SimConfig) -> list[dict]:
-    """Run every cell in somite, one ``simulate`` batch per (noise sigma, recording), and fill
+    """Run every cell in somite, one ``simulate_batch`` batch per (noise sigma, recording), and fill
     in each cell's ``result``. Returns what each batch cost."""
     bodies = {shape: Body.build(short) for shape, short in SHAPES.items()}
     terrains = {name: parse_terrain(name) for name in {c.terrain for c in cells}}
@@ -221,7 +221,7 @@ def run_cells(cells: list[Cell], config: SimConfig) -> list[dict]:
     batches = []
     for (sigma, record), group in sorted(groups.items()):
         started = time.perf_counter()
-        outcomes, trace = simulate([bodies[c.shape] for c in group],
+        outcomes, trace = simulate_batch([bodies[c.shape] for c in group],
                                    [terrains[c.terrain] for c in group],
                                    [c.controller for c in group],
                                    config.with_options(noise_sigma=sigma), seeds=0,

@@ -54,7 +54,7 @@ from somite.tasks.episode import (
     D_MAX_GAP,
     D_MAX_TILT,
 )
-from somite.tasks.locomotion import simulate
+from somite.tasks.locomotion import simulate_batch
 
 SHAPES = {"worm-6x2": "worm", "biped-4x3": "biped"}
 DEFAULT_REFERENCE = Path(__file__).resolve().parents[2] / "shared/reference/vsr-sine-sweep.csv"
@@ -79,7 +79,7 @@ def run_somite(rows: list[dict], config: SimConfig, amplitude: float = 1.0) -> l
     hair under 1 measures somite's own chaos, as the reference's README does for its own."""
     bodies = {name: Body.build(shape) for name, shape in SHAPES.items()}
     terrains = {name: parse_terrain(name) for name in {r["terrain"] for r in rows}}
-    outcomes, trace = simulate(
+    outcomes, trace = simulate_batch(
         [bodies[r["shape"]] for r in rows],
         [terrains[r["terrain"]] for r in rows],
         [Sine(freq=r["freq"], amp=amplitude, phase=r["phase"]) for r in rows],

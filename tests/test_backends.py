@@ -1,9 +1,8 @@
-"""The cuda backend runs the CPU's episode code (checked on numba-cuda's simulator, as CI has no
-GPU), and lockstep runs write the logs their solo runs write."""
+"""Every registered backend runs the CPU's episode code (cuda checked on numba-cuda's
+simulator, as CI has no GPU), and lockstep runs write the logs their solo runs write."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import subprocess
@@ -16,16 +15,15 @@ from somite import evolve_lockstep
 from somite.cli import main
 from somite.experiments.config import resolve
 from somite.experiments.runner import evolve
-from somite.tasks.backends import check_backend, cuda_unavailable
+from somite.tasks.backends import BACKENDS, check_backend, cuda_unavailable
 
 from .conftest import expect_error
 
-HAS_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
-
 # Two robots of different bodies and controllers, on their own hilly terrains, 0.75 s (they
-# land at about 0.45 s): the CPU kernel against the CUDA kernel run by the simulator (plain
-# Python, one thread per robot).
-_SIMULATOR_SCRIPT = """
+# land at about 0.45 s), under both presets: the CPU kernel called directly against the backend
+# named in argv[1] through the registry (cuda: run by numba-cuda's simulator, plain Python, one
+# thread per robot, as CI has no GPU).
+_BACKEND_SCRIPT = """
 import json, sys, warnings
 import numpy as np
 from somite.bench import random_graph
@@ -34,46 +32,70 @@ from somite.sim.config import pack_params, preset
 from somite.sim.sensors import noise_table
 from somite.sim.system import compile_system
 from somite.sim.terrain import hilly
-from somite.tasks.episode import new_trace
+from somite.tasks.backends import BACKENDS
+from somite.tasks.episode import new_trace, run_batch
 from somite.tasks.locomotion import compile_controllers, outcomes, run
-from somite.tasks import cuda_batch
 
+name = sys.argv[1]
+reason = BACKENDS[name].unavailable()
+if reason:
+    print(json.dumps({"unavailable": reason}))
+    sys.exit(0)
 warnings.simplefilter("ignore", RuntimeWarning)  # uint64 hashing wraps, as it does compiled
-config = preset(sys.argv[1], duration=0.75)
 rng = np.random.default_rng(1)
 bodies = [Body.build("worm"), Body.build("biped")]
 graphs = [random_graph(body, 40, rng) for body in bodies]
 system = compile_system(bodies, [hilly(1.0, 10.0, 7), hilly(1.0, 10.0, 8)])
 ctrl = compile_controllers(graphs, [b.shape.n_voxels for b in bodies])
 seeds = np.array([11, 12], dtype=np.uint64)
-cpu = run(system, ctrl, config, seeds)
-gpu = new_trace(2, config.n_steps, system, False)
-cuda_batch.run_batch(system, ctrl, pack_params(config), noise_table(config), seeds,
-                     config.n_steps, gpu)
-print(json.dumps({
-    "cpu": [o.velocity for o in outcomes(cpu, config)],
-    "cuda": [o.velocity for o in outcomes(gpu, config)],
-    "com": float(np.abs(cpu.com - gpu.com).max()),
-    "status": [cpu.status.tolist(), gpu.status.tolist()],
-    "fields": {f: float(np.abs(getattr(cpu, f) - getattr(gpu, f)).max())
-               for f in ("max_speed", "min_area", "diagnostics", "non_finite")},
-}))
+result = {}
+for preset_name in ("paper", "original-code"):
+    config = preset(preset_name, duration=0.75)
+    cpu = new_trace(2, config.n_steps, system, False)
+    run_batch(system, ctrl, pack_params(config), noise_table(config), seeds, config.n_steps, cpu)
+    other = run(system, ctrl, config, seeds, backend=name)
+    result[preset_name] = {
+        "cpu": [o.velocity for o in outcomes(cpu, config)],
+        "backend": [o.velocity for o in outcomes(other, config)],
+        "com": float(np.abs(cpu.com - other.com).max()),
+        "status": [cpu.status.tolist(), other.status.tolist()],
+        "fields": {f: float(np.abs(getattr(cpu, f) - getattr(other, f)).max())
+                   for f in ("max_speed", "min_area", "diagnostics", "non_finite")},
+    }
+if name == "cuda":  # its own table of the System fields indexed by terrain
+    from somite.sim.system import System
+    from somite.tasks.cuda_batch import TERRAIN_FIELDS
+    result["terrain_fields"] = sorted(TERRAIN_FIELDS) == sorted(
+        f for f in System._fields if f.startswith("terrain_") and f != "terrain_of")
+print(json.dumps(result))
 """
 
 
-@pytest.mark.skipif(not HAS_NUMBA_CUDA, reason="numba-cuda is not installed")
-@pytest.mark.parametrize("preset_name", ["paper", "original-code"])
-def test_cuda_code_path_gives_the_cpus_velocities(preset_name):
+@pytest.mark.parametrize("name", list(BACKENDS))
+def test_every_backend_gives_the_cpu_kernels_numbers(name):
     env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
-    done = subprocess.run([sys.executable, "-c", _SIMULATOR_SCRIPT, preset_name], env=env,
+    done = subprocess.run([sys.executable, "-c", _BACKEND_SCRIPT, name], env=env,
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
-    result = json.loads(done.stdout.splitlines()[-1])
-    assert result["status"] == [[0, 0], [0, 0]]
-    assert result["cpu"] == pytest.approx(result["cuda"], abs=1e-9)
-    assert abs(result["cpu"][0] - result["cpu"][1]) > 1e-6  # two different robots
-    assert result["com"] < 1e-9
-    assert max(result["fields"].values()) < 1e-9
+    results = json.loads(done.stdout.splitlines()[-1])
+    if "unavailable" in results:
+        pytest.skip(f"backend {name!r} cannot run here: {results['unavailable']}")
+    assert results.pop("terrain_fields", True)
+    for result in results.values():
+        assert result["status"] == [[0, 0], [0, 0]]
+        assert result["cpu"] == pytest.approx(result["backend"], abs=1e-9)
+        assert abs(result["cpu"][0] - result["cpu"][1]) > 1e-6  # two different robots
+        assert result["com"] < 1e-9
+        assert max(result["fields"].values()) < 1e-9
+
+
+@pytest.mark.parametrize("name", list(BACKENDS))
+def test_every_backend_is_in_the_command_lines_help(name, capsys):
+    with pytest.raises(SystemExit):
+        main(["simulate", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert f"{name}, {BACKENDS[name].help}" in text
+    assert "{" + ",".join(BACKENDS) + "}" in text
 
 
 def test_unknown_or_unavailable_backend_is_a_one_line_error(capsys):

@@ -34,7 +34,7 @@ from somite.sim.system import (
     geometry,
 )
 from somite.sim.terrain import Terrain, parse_terrain
-from somite.tasks.locomotion import simulate
+from somite.tasks.locomotion import simulate_batch
 
 from .conftest import quiet
 
@@ -231,7 +231,7 @@ def test_separate_polygons_do_not_overlap():
 
 def test_a_voxel_dropped_on_flat_ground_comes_to_rest_on_its_bottom_blocks():
     body = Body.build("1", "none")
-    _, trace = simulate([body], [FLAT], [Zero()], quiet(duration=4.0), record=True)
+    _, trace = simulate_batch([body], [FLAT], [Zero()], quiet(duration=4.0), record=True)
     corners = trace.pos[0]  # (steps, 4, 2): SW, SE, NE, NW
     np.testing.assert_allclose(corners[-60:], corners[-1:].repeat(60, axis=0), atol=1e-3)
     bottom = corners[-1, :2, 1]
@@ -246,7 +246,7 @@ def test_springs_ropes_and_welds_move_no_centre_of_mass_in_the_air():
     each other, a robot that starts at rest keeps its centre of mass where it was."""
     body = Body.build("11", "none")
     config = quiet(duration=2.0, gravity=1e-12, drag=0.0)
-    _, trace = simulate([body], [FLAT], [Sine(2.0, 1.0, 1.0)], config, record=True)
+    _, trace = simulate_batch([body], [FLAT], [Sine(2.0, 1.0, 1.0)], config, record=True)
     assert not trace.contact[0].any()
     assert np.ptp(trace.pos[0, :, :, 0], axis=0).max() > 0.1  # the voxels did move
     np.testing.assert_allclose(trace.com[0], trace.com[0, :1].repeat(len(trace.com[0]), axis=0),
@@ -264,7 +264,7 @@ def test_a_contracted_bottom_voxel_lifts_its_blocks_and_reads_no_touch():
     other = voxels.index((3, 0))
     pose = np.zeros((1, body.shape.n_voxels))
     pose[0, contracted] = 1.0
-    _, trace = simulate([body], [parse_terrain("flat")], [Table(pose)], quiet(duration=4.0),
+    _, trace = simulate_batch([body], [parse_terrain("flat")], [Table(pose)], quiet(duration=4.0),
                         record=True)
     readings = trace.readings[0, -1]
     order = [r.voxel for r in body.readings]

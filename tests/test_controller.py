@@ -15,7 +15,7 @@ from somite.brain.controllers import GraphArrays
 from somite.brain.kernels import graph_step
 from somite.brain.kinds import ACTUATOR, HIDDEN, SENSOR
 from somite.sim.terrain import hilly
-from somite.tasks.locomotion import simulate
+from somite.tasks.locomotion import simulate_batch
 
 from .conftest import quiet
 
@@ -109,7 +109,7 @@ def test_episode_drives_voxels_with_the_reference_controller(worm):
     """Feed the readings recorded in an episode to the reference: it must produce exactly
     the actuation the kernel applied, step by step."""
     g = random_graph(worm, 200, np.random.default_rng(5))
-    _, trace = simulate([worm], [hilly(1.0, 10.0, 1)], [g], quiet(duration=1.0).with_options(
+    _, trace = simulate_batch([worm], [hilly(1.0, 10.0, 1)], [g], quiet(duration=1.0).with_options(
         noise_sigma=0.01), seeds=3, record=True)
     h = [0.0] * g.n_nodes
     for k in range(1, trace.readings.shape[1]):

@@ -6,6 +6,7 @@ import csv
 import json
 import math
 import os
+import pickle
 import signal
 import subprocess
 import sys
@@ -93,6 +94,35 @@ def test_omega_one_run_is_the_same_with_and_without_a_partition():
         runs.append((json.dumps(log), [g.to_dict() for g in ea.population.genomes]))
     assert any(n.kind == "hidden" for g in ea.population.genomes for n in g.nodes)
     assert runs[0] == runs[1]
+
+
+def test_tell_takes_genomes_that_went_through_pickle():
+    """Evaluations farmed out (to Dask workers) come back as copies: tell takes genomes equal
+    to those asked, and the run is the one told the very objects."""
+    body = Body.build("worm")
+    runs = []
+    for copied in (False, True):
+        ea = GraphEA(body, population=4, seed=3)
+        for generation in range(3):
+            genomes = ea.ask()
+            told = pickle.loads(pickle.dumps(genomes)) if copied else genomes
+            assert copied == all(a is not b for a, b in zip(told, genomes))
+            ea.tell(told, np.arange(len(genomes), dtype=float) * (generation + 1))
+        runs.append(([{k: v for k, v in r.items() if k != "elapsed_seconds"} for r in ea.log],
+                     [g.to_dict() for g in ea.population.genomes]))
+    assert runs[0] == runs[1]
+
+
+def test_tell_refuses_genomes_that_were_not_asked():
+    ea = GraphEA(Body.build("worm"), population=4, seed=3)
+    genomes = ea.ask()
+    other = GraphEA(Body.build("worm"), population=4, seed=4).ask()
+    with pytest.raises(SomiteError, match=r"^tell='genomes\[2\]': not the genome the last ask"):
+        ea.tell([*genomes[:2], other[2], genomes[3]], np.zeros(4))
+    with pytest.raises(SomiteError, match="^tell='3 genomes': the last ask"):
+        ea.tell(genomes[:3], np.zeros(3))
+    ea.tell(genomes, np.zeros(4))  # the refusals changed nothing
+    assert ea.generation == 0
 
 
 def test_nan_counts_as_the_worst():
@@ -194,6 +224,21 @@ def test_config_rejects_bad_values():
         resolve({"preset": "fast"})
     with pytest.raises(SomiteError, match="^duration=nan"):
         resolve({"duration": math.nan})
+
+
+def test_the_partition_option_keeps_its_name_modules():
+    """GAConfig's field is ``partition_spec``; options, TOML and config.json say ``modules``."""
+    ga = GAConfig.from_options({"modules": "worm-halves", "omega": 2.0})
+    assert ga.partition_spec == "worm-halves"
+    assert ga.partition(Body.build("worm").shape) == Partition.preset("worm-halves", "worm")
+    data = ga.to_dict()
+    assert data["modules"] == "worm-halves" and "partition_spec" not in data
+    assert GAConfig.from_options(data) == ga
+    assert resolve({"modules": "worm-halves", "omega": 2.0}).ga == ga
+    with pytest.raises(SomiteError, match="^partition_spec='paper': unknown option"):
+        GAConfig.from_options({"partition_spec": "paper"})
+    with pytest.raises(SomiteError, match="^modules=3: must be of type str"):
+        GAConfig.from_options({"modules": 3})
 
 
 def test_a_short_run_improves(tmp_path):

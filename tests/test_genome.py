@@ -313,11 +313,11 @@ def test_compile_empty_edge_set():
 def test_compiled_genome_drives_the_simulation(worm):
     from somite.sim.config import SimConfig
     from somite.sim.terrain import parse_terrain
-    from somite.tasks.locomotion import simulate
+    from somite.tasks.locomotion import simulate_batch
 
     arrays = compile_genome(worm)
     still = Genome(worm.body, worm.nodes, ())
-    outcomes, _ = simulate(
+    outcomes, _ = simulate_batch(
         [worm.body] * 2,
         [parse_terrain("flat")] * 2,
         [arrays, compile_genome(still)],

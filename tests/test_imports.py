@@ -2,7 +2,7 @@
 
 Read statically from the source, so an import inside a function counts like one at the top:
 
-- the foundation (``errors``, ``limits``, ``budget``, ``_io``, ``_jit``, ``_math``,
+- the foundation (``errors``, ``limits``, ``budget``, ``_io``, ``_jit``, ``_math``, ``formats``,
   ``types``) imports no other part;
 - ``sim`` (physics and the body description) and ``brain`` (the controller) are independent,
   except that a genome is written for a body: ``brain`` may import ``sim.body``, which itself
@@ -10,7 +10,8 @@ Read statically from the source, so an import inside a function counts like one 
 - ``tasks`` is where sim and brain meet; ``evolution`` and ``modules`` sit above it and do not
   import each other (a partition describes a body, so both take it from ``sim.partition``);
   ``experiments``, ``analysis`` and ``viz`` above those; ``campaigns`` (experiments on Dask)
-  above ``experiments``; ``commands`` and ``cli`` on top;
+  above ``experiments`` (its task kinds read their runs with ``analysis``); ``commands`` and
+  ``cli`` on top;
 - plotting and imaging libraries only in ``viz``; the progress bar only in the command line.
 - ``report`` (a campaign's report) reads every part below the command line, which imports it.
 """
@@ -24,7 +25,7 @@ import pytest
 
 SOURCE = Path(__file__).resolve().parents[1] / "src" / "somite"
 
-FOUNDATION = {"errors", "limits", "budget", "_io", "_jit", "_math", "types"}
+FOUNDATION = {"errors", "limits", "budget", "_io", "_jit", "_math", "types", "formats"}
 BELOW_TOP = {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis", "viz",
              "bench", "campaigns"}
 ALLOWED = {
@@ -38,7 +39,7 @@ ALLOWED = {
     "viz": {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis"},
     "report": BELOW_TOP | {"__init__"},
     "bench": {"sim", "brain", "tasks"},
-    "campaigns": {"sim", "brain", "tasks", "evolution", "modules", "experiments"},
+    "campaigns": {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis"},
     "__init__": BELOW_TOP,
     "commands": BELOW_TOP | {"commands", "__init__", "report"},
     "cli": {"commands"},

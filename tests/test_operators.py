@@ -1,6 +1,7 @@
 """Initialisation, mutation operators, the operator roulette, and module partitions."""
 
 from collections import Counter
+from dataclasses import fields
 
 import numpy as np
 import pytest
@@ -8,8 +9,11 @@ from scipy.stats import chisquare
 
 from somite.brain.genome import Edge, Genome, Node, next_id
 from somite.errors import SomiteError
+from somite.evolution.config import GAConfig
 from somite.evolution.operators import (
     OPERATOR_NAMES,
+    OPERATORS,
+    WEIGHT_MUTATION,
     OperatorConfig,
     add_edge,
     add_node,
@@ -406,6 +410,23 @@ def test_zero_probabilities_are_never_picked():
 )
 def test_operator_config_rejects_bad_values(field, value):
     expect_error(field, lambda: OperatorConfig(**{field: value}))
+
+
+def test_every_operator_has_its_probability_field():
+    weights = [f.name for f in fields(OperatorConfig) if f.name.startswith("p_")]
+    assert weights == [f"p_{name}" for name in OPERATORS]
+    assert OperatorConfig().probabilities == tuple(op.default for op in OPERATORS.values())
+
+
+@pytest.mark.parametrize("name", OPERATOR_NAMES)
+def test_weights_only_leaves_only_weight_mutation_on(grown_worm, name):
+    """Whatever weight an operator was given, the ablation turns it off (weight mutation on)."""
+    ga = GAConfig(weights_only=True, operators=OperatorConfig(**{f"p_{name}": 5.0}))
+    variation = ga.variation()
+    assert variation.probabilities == tuple(float(n == WEIGHT_MUTATION) for n in OPERATORS)
+    assert (variation.sigma, variation.omega) == (ga.operators.sigma, ga.operators.omega)
+    rng = np.random.default_rng(4)
+    assert {mutate(grown_worm, rng, variation)[1] for _ in range(20)} == {WEIGHT_MUTATION}
 
 
 def test_operator_config_needs_one_positive_probability():

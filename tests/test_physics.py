@@ -11,7 +11,7 @@ from somite.brain.controllers import Sine, Table, Zero
 from somite.sim.body import Body
 from somite.sim.config import CONTROL_HZ, pack_params
 from somite.sim.terrain import hilly, parse_terrain
-from somite.tasks.locomotion import simulate
+from somite.tasks.locomotion import simulate_batch
 
 from .conftest import quiet, voxel_geometry
 
@@ -20,7 +20,7 @@ FLAT = parse_terrain("flat")
 
 def test_worm_at_rest_settles(worm):
     config = quiet(duration=10.0)
-    [outcome], trace = simulate([worm], [FLAT], [Zero()], config, record=True)
+    [outcome], trace = simulate_batch([worm], [FLAT], [Zero()], config, record=True)
     after = int(5 * CONTROL_HZ)
     com = trace.com[0, after:]
     speed = np.linalg.norm(np.diff(com, axis=0), axis=1) * CONTROL_HZ
@@ -37,7 +37,7 @@ def test_dropped_robot_falls_with_g(biped):
     drift sideways or turn."""
     for drag in (0.0, 0.1):
         config = quiet(duration=1.0, drag=drag)
-        _, trace = simulate([biped], [FLAT], [Zero()], config, record=True)
+        _, trace = simulate_batch([biped], [FLAT], [Zero()], config, record=True)
         touching = trace.contact[0].any(axis=1)
         first_touch = int(np.argmax(touching))
         assert 10 < first_touch < 40  # a 1 m drop takes ~0.45 s
@@ -60,7 +60,7 @@ def test_random_bang_bang_never_inverts_or_blows_up(worm, biped):
         tables = [Table(rng.choice([-1.0, 1.0], size=(int(rng.integers(2, 121)), voxels)))
                   for _ in range(count)]
         terrains = [hilly(1.0, 10.0, int(s)) for s in rng.integers(0, 10000, count)]
-        outcomes, trace = simulate([body] * count, terrains, tables, quiet(), seeds=0)
+        outcomes, trace = simulate_batch([body] * count, terrains, tables, quiet(), seeds=0)
         assert all(o.finite for o in outcomes)
         assert np.all(np.isfinite(trace.com))
         # The rope limits keep the blocks apart: no voxel turns inside out (a mirrored
@@ -71,7 +71,7 @@ def test_random_bang_bang_never_inverts_or_blows_up(worm, biped):
 
 def _distance(body: Body, controller, terrain=FLAT, duration=10.0) -> float:
     config = quiet(duration=duration, start_gap=100.0)
-    [outcome], _ = simulate([body], [terrain], [controller], config)
+    [outcome], _ = simulate_batch([body], [terrain], [controller], config)
     return outcome.distance
 
 
@@ -90,8 +90,8 @@ def test_travelling_waves_move_the_worm_both_ways(worm):
 def test_uphill_gives_less_headway(worm):
     gait = Sine(1.0, 1.0, -math.pi / 2)
     config = quiet(duration=10.0)
-    [flat], _ = simulate([worm], [FLAT], [gait], config)
-    [uphill], _ = simulate([worm], [parse_terrain("uphill-20")], [gait], config)
+    [flat], _ = simulate_batch([worm], [FLAT], [gait], config)
+    [uphill], _ = simulate_batch([worm], [parse_terrain("uphill-20")], [gait], config)
     assert 0.0 < uphill.distance < 0.75 * flat.distance
 
 
@@ -123,7 +123,7 @@ def test_tilt_is_the_angle_between_the_end_columns():
 def test_upright_worm_diagnostics(worm):
     """A worm at rest: no tilt, never on its side, lowest corner on the ground, voxels near
     their rest area."""
-    [outcome], _ = simulate([worm], [FLAT], [Zero()], quiet(duration=8.0))
+    [outcome], _ = simulate_batch([worm], [FLAT], [Zero()], quiet(duration=8.0))
     assert outcome.max_tilt_deg < 1.0
     assert outcome.flipped_fraction == 0.0
     assert abs(outcome.max_height) < 0.02
@@ -133,7 +133,7 @@ def test_upright_worm_diagnostics(worm):
 def test_a_jump_shows_as_height(worm):
     """All voxels pulsing together make the worm hop: its lowest corner leaves the ground."""
     config = quiet(duration=10.0)
-    [hop], _ = simulate([worm], [FLAT], [Sine(2.0, 1.0, 0.0)], config)
-    [crawl], _ = simulate([worm], [FLAT], [Sine(0.5, 1.0, -1.0)], config)
+    [hop], _ = simulate_batch([worm], [FLAT], [Sine(2.0, 1.0, 0.0)], config)
+    [crawl], _ = simulate_batch([worm], [FLAT], [Sine(0.5, 1.0, -1.0)], config)
     assert hop.max_height > 1.0
     assert crawl.max_height < 0.1

@@ -15,7 +15,7 @@ from somite.sim.body import Body, Shape, is_connected
 from somite.sim.config import SimConfig
 from somite.sim.partition import Partition
 from somite.sim.terrain import flat, hilly
-from somite.tasks.locomotion import simulate
+from somite.tasks.locomotion import simulate_batch
 
 grids = st.integers(1, 5).flatmap(
     lambda width: st.lists(
@@ -98,7 +98,7 @@ def test_random_actuation_never_turns_a_voxel_inside_out(shape, terrain, period,
         rows = np.where(rows >= 0.0, 1.0, -1.0)
     ground = flat() if terrain is None else hilly(*terrain)
     config = SimConfig(duration=3.0, transient=0.0, noise_sigma=0.0)
-    [outcome], trace = simulate([Body.build(shape, "none")], [ground], [Table(rows)], config)
+    [outcome], trace = simulate_batch([Body.build(shape, "none")], [ground], [Table(rows)], config)
     assert outcome.finite and np.all(np.isfinite(trace.com))
     assert trace.min_area[0] > 0.0
 
@@ -112,7 +112,7 @@ def test_a_constant_pose_on_flat_ground_stays_put(seed, shape):
     rng = np.random.default_rng(seed)
     body = Body.build(shape)
     poses = [Table(rng.uniform(-1.0, 1.0, size=(1, body.shape.n_voxels))) for _ in range(8)]
-    outcomes, trace = simulate([body] * 8, [flat()] * 8, poses, SimConfig(), seeds=seed,
+    outcomes, trace = simulate_batch([body] * 8, [flat()] * 8, poses, SimConfig(), seeds=seed,
                                record=True)
     speeds = np.abs([o.velocity for o in outcomes])
     assert speeds.mean() <= 0.005 and speeds.max() <= 0.02, speeds

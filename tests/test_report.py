@@ -235,15 +235,6 @@ def test_bad_campaign_is_one_line_and_exit_2(tmp_path, capsys, damage, field):
     assert not (tmp_path / "r").exists()
 
 
-try:
-    import somite.commands.campaign  # noqa: F401 - it comes with `somite campaign run`
-except ImportError:
-    CAMPAIGN_RUN = False
-else:
-    CAMPAIGN_RUN = True
-
-
-@pytest.mark.skipif(not CAMPAIGN_RUN, reason="needs `somite campaign run` (branch issue-11-run)")
 def test_campaign_run_smoke_then_report(tmp_path):
     campaign = tmp_path / "smoke"
     run = subprocess.run([sys.executable, "-m", "somite.cli", "campaign", "run", "smoke",
@@ -261,3 +252,59 @@ def test_campaign_run_smoke_then_report(tmp_path):
     check_validation(campaign, data, 10)
     for figure in ("figure7", "figure8", "rq3_reassembly"):
         assert set(data[figure]["curves"]) == {"biped", "worm"}
+
+
+OWN_NAMES = {"rq1": "graph", "ablation": "fixed-topology", "rq2-homo": "swap",
+             "rq2-hetero": "cross-swap"}
+OWN_FIGURES = {"graph": {"table1": "", "figure3": "graph", "figure5": "topology + weights"},
+               "fixed-topology": {"figure5": "weights only"},
+               "swap": {"figure7": "same shape"}, "cross-swap": {"figure7": "other shape"}}
+
+
+def _renamed(value):
+    """``value`` with every task id of a renamed experiment (``rq1/...``) renamed."""
+    if isinstance(value, dict):
+        return {_renamed(k): _renamed(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_renamed(v) for v in value]
+    if isinstance(value, str):
+        old, slash, rest = value.partition("/")
+        if old in OWN_NAMES and (slash or value == old):
+            return OWN_NAMES[old] + slash + rest
+    return value
+
+
+def test_a_campaign_of_its_own_names_gets_the_figures_it_declares(campaign, report, tmp_path):
+    """The finished campaign with its experiments renamed and declaring their figures, as a
+    user's TOML campaign writes campaign.json: the figures it declares are drawn from them,
+    and one line names those no experiment feeds (no omega experiments, no discovery's)."""
+    copy = tmp_path / "campaign"
+    shutil.copytree(campaign, copy)
+    for old, new in OWN_NAMES.items():
+        (copy / old).rename(copy / new)
+    doc = _renamed(json.loads((copy / "campaign.json").read_text()))
+    for name, info in doc["experiments"].items():
+        info["figures"] = OWN_FIGURES.get(name, {})
+    (copy / "campaign.json").write_text(json.dumps(doc))
+    out = tmp_path / "report"
+    shutil.copytree(report[0] / "cache", out / "cache")  # the same robots: nothing re-run
+    assert main(["report", str(copy), "--out", str(out), "--no-timelapse", "--quiet"]) == 0
+    data = json.loads((out / "report.json").read_text())
+    first = report[1]
+    assert data["figure3"]["curves"]["worm"]["graph"] == first["figure3"]["curves"]["worm"][
+        "omega 1"] | {"runs": [_renamed(r) for r in first["figure3"]["curves"]["worm"][
+            "omega 1"]["runs"]]}
+    for shape in ("biped", "worm"):
+        assert data["figure5"]["one_sided"][shape]["logged"]["p"] == first["figure5"][
+            "one_sided"][shape]["logged"]["p"]
+        assert set(data["figure7"]["curves"][shape]) == {"same shape", "other shape"}
+    rows = {(r["experiment"], r["shape"]): r for r in data["table1"]}
+    assert rows["graph", "worm"]["paper"]["final"]["size"]["value"] == 216.0
+    assert rows["fixed-topology", "worm"]["paper"] is None
+    assert set(data["figures"]["missing"]) == {"figure10", "figure8", "discovered"}
+    assert data["figure10"]["curves"] == {} and data["figure9"]["eta"] == {}
+    text = (out / "index.md").read_text()
+    [line] = [line for line in text.splitlines() if line.startswith("Figures no experiment")]
+    assert "figure10: no evolve experiment declares it" in line
+    assert "discovered: no reassemble experiment declares it" in line
+    assert "Figures no experiment" not in (report[0] / "index.md").read_text()

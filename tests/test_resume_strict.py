@@ -89,6 +89,14 @@ CORRUPTIONS = {
     "checkpoint evaluations -5": lambda r: _checkpoint(r, lambda d: d.update(evaluations=-5)),
     "checkpoint all-NaN fitness": lambda r: _checkpoint(
         r, lambda d: d.update(fitness=[None] * len(d["fitness"]))),
+    # Values that still parse: only the checkpoint's seal tells.
+    "a median velocity changed": lambda r: _edit_log(
+        r, lambda ls: [*ls[:3], _cell(ls[3], 4, "0.5"), *ls[4:]]),
+    "a checkpoint weight changed": lambda r: _checkpoint(
+        r, lambda d: d["population"][0]["edges"][0].__setitem__(2, 0.125)),
+    "a best's velocity changed": lambda r: (r / "bests.jsonl").write_text("".join(
+        line.replace('"velocity":', '"velocity":1', 1) if n == 2 else line
+        for n, line in enumerate(_lines(r / "bests.jsonl")))),
 }
 
 
@@ -111,16 +119,19 @@ def test_a_torn_last_line_is_the_runs_own(finished, tmp_path, capsys):
     assert main(_args(short, "--generations", "4")) == 0
     for name, whole in (("log.csv", finished / "log.csv"),
                         ("bests.jsonl", finished / "bests.jsonl")):
-        lines = _lines(whole)
+        lines, own = _lines(whole), _lines(short / name)
         kept = len(lines) - 2  # generation 5 complete is gone; half of generation 5 is there
-        (short / name).write_text("".join(lines[:kept]) + lines[kept][: len(lines[kept]) // 2])
+        assert len(own) == kept  # the short run's own lines, up to its checkpoint
+        (short / name).write_text("".join(own) + lines[kept][: len(lines[kept]) // 2])
     capsys.readouterr()
     assert main(_args(short, "--generations", "6", "--resume")) == 0
     for name in ("bests.jsonl", "best.json"):  # the checkpoint holds the elapsed time
         assert (short / name).read_bytes() == (finished / name).read_bytes(), name
-    strip = [line.split(",")[:2] + line.split(",")[3:] for line in _lines(short / "log.csv")]
-    assert strip == [line.split(",")[:2] + line.split(",")[3:]
-                     for line in _lines(finished / "log.csv")]  # elapsed time aside
+    # Elapsed time aside, and the validation velocity, which the short run measured at its
+    # end (generation 4) and the whole run did not.
+    strip = [line.split(",")[:2] + line.split(",")[3:-1] for line in _lines(short / "log.csv")]
+    assert strip == [line.split(",")[:2] + line.split(",")[3:-1]
+                     for line in _lines(finished / "log.csv")]
 
 
 def test_a_bare_resume_of_a_run_killed_before_its_config_is_refused(tmp_path, capsys):

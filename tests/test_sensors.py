@@ -10,7 +10,7 @@ from somite.sim.config import LIDAR_PAPER, preset
 from somite.sim.sensors import ANGLE_MEAN, NO_ANGLE, VECTOR_MEAN, voxel_state
 from somite.sim.system import geometry
 from somite.sim.terrain import hilly, parse_terrain
-from somite.tasks.locomotion import simulate
+from somite.tasks.locomotion import simulate_batch
 
 from .conftest import quiet, voxel_geometry
 
@@ -52,7 +52,7 @@ def _check_lidar(body, trace, terrain, step):
 
 def test_lidar_on_flat_ground(worm):
     config = quiet(duration=3.0)
-    _, trace = simulate([worm], [FLAT], [Zero()], config, record=True)
+    _, trace = simulate_batch([worm], [FLAT], [Zero()], config, record=True)
     assert _check_lidar(worm, trace, FLAT, config.n_steps) == 10
     # The bottom-right voxel's downward rays hit the ground, its level and upward ones nothing.
     lidar = _readings_of(worm, worm.shape.index(5, 0), "lidar")
@@ -63,7 +63,7 @@ def test_lidar_on_flat_ground(worm):
 def test_lidar_against_the_right_wall(worm):
     # Put the worm's right edge 4 m before the foot of the right wall (x = 1990).
     config = quiet(duration=3.0, start_gap=1990.0 - 4.0 - 18.0 - 10.0)
-    _, trace = simulate([worm], [FLAT], [Zero()], config, record=True)
+    _, trace = simulate_batch([worm], [FLAT], [Zero()], config, record=True)
     assert _check_lidar(worm, trace, FLAT, config.n_steps) == 10
     level = _readings_of(worm, worm.shape.index(5, 1), "lidar")[2]
     assert trace.readings[0, -1, level] < 0.6  # the horizontal ray sees the wall
@@ -71,7 +71,7 @@ def test_lidar_against_the_right_wall(worm):
 
 def test_touch_is_one_exactly_when_a_corner_touches(worm):
     terrain = hilly(1.0, 10.0, 3)
-    _, trace = simulate([worm], [terrain], [Sine(1.5, 1.0, -1.0)], quiet(duration=6.0),
+    _, trace = simulate_batch([worm], [terrain], [Sine(1.5, 1.0, -1.0)], quiet(duration=6.0),
                         record=True)
     corners = geometry(worm).corners
     compared = 0
@@ -90,7 +90,8 @@ def test_area_ratio_at_rest_and_under_actuation(worm):
     config = quiet(duration=4.0)
     contract = Table(np.ones((1, worm.shape.n_voxels)))
     expand = Table(-np.ones((1, worm.shape.n_voxels)))
-    _, trace = simulate([worm] * 3, [FLAT] * 3, [Zero(), contract, expand], config, record=True)
+    _, trace = simulate_batch([worm] * 3, [FLAT] * 3, [Zero(), contract, expand], config,
+                              record=True)
     areas = [voxel_geometry(worm, trace.pos[b, -1])[1] for b in range(3)]
     assert np.all(np.abs(areas[0] - 1.0) < 0.02)
     assert np.all(np.abs(areas[1] - (1 - 0.225)) < 0.03)
@@ -106,10 +107,10 @@ def test_noise_is_gaussian_with_sigma_and_seeded(worm):
     # The zero controller ignores its readings: noise changes the readings, not the motion.
     config = quiet(duration=5.0)
     noisy = config.with_options(noise_sigma=0.01)
-    _, clean = simulate([worm], [FLAT], [Zero()], config, record=True)
-    _, first = simulate([worm], [FLAT], [Zero()], noisy, seeds=7, record=True)
-    _, again = simulate([worm], [FLAT], [Zero()], noisy, seeds=7, record=True)
-    _, other = simulate([worm], [FLAT], [Zero()], noisy, seeds=8, record=True)
+    _, clean = simulate_batch([worm], [FLAT], [Zero()], config, record=True)
+    _, first = simulate_batch([worm], [FLAT], [Zero()], noisy, seeds=7, record=True)
+    _, again = simulate_batch([worm], [FLAT], [Zero()], noisy, seeds=7, record=True)
+    _, other = simulate_batch([worm], [FLAT], [Zero()], noisy, seeds=8, record=True)
     noise = (first.readings - clean.readings)[0, 1:]
     assert abs(noise.std() - 0.01) < 0.0005 and abs(noise.mean()) < 0.0005
     np.testing.assert_array_equal(first.readings, again.readings)
@@ -128,9 +129,10 @@ def test_original_code_noise_is_the_authors_java_random_0_stream(worm):
     noisy = preset("original-code", duration=2 / 60)
     assert noisy.noise_stream == "java-random-0" and noisy.noise_sigma == 0.01
     clean = noisy.with_options(noise_sigma=0.0)
-    _, exact = simulate([worm], [FLAT], [Zero()], clean, record=True)
-    _, batch = simulate([worm] * 2, [FLAT] * 2, [Zero()] * 2, noisy, seeds=[3, 4], record=True)
-    _, again = simulate([worm], [FLAT], [Zero()], noisy, seeds=9, record=True)
+    _, exact = simulate_batch([worm], [FLAT], [Zero()], clean, record=True)
+    _, batch = simulate_batch([worm] * 2, [FLAT] * 2, [Zero()] * 2, noisy, seeds=[3, 4],
+                              record=True)
+    _, again = simulate_batch([worm], [FLAT], [Zero()], noisy, seeds=9, record=True)
     width = {"area": 1, "touch": 1, "velocity": 2, "lidar": 5}
     expected = np.array([
         [0.01 * JAVA_RANDOM_0[width[r.kind] * (k - 1) + r.component] for r in worm.readings]
@@ -186,7 +188,7 @@ def _hand_angle(quad, mode):
 def test_voxel_frame_lidar_turns_with_the_configured_voxel_angle(worm, mode, other):
     terrain = hilly(1.0, 10.0, 5)
     config = quiet(duration=3.0, lidar_frame="voxel", voxel_angle=mode)
-    _, trace = simulate([worm], [terrain], [Sine(2.0, 1.0, -1.0)], config, record=True)
+    _, trace = simulate_batch([worm], [terrain], [Sine(2.0, 1.0, -1.0)], config, record=True)
     corners = geometry(worm).corners
     checked, told_apart = 0, 0
     for step in range(30, config.n_steps + 1, 30):

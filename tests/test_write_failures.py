@@ -171,6 +171,41 @@ def test_show_video_whose_encoder_fails_is_one_line(run_dir, tmp_path, capsys, m
     assert contents(tmp_path) == before
 
 
+@pytest.fixture
+def full_ffmpeg(tmp_path_factory, monkeypatch):
+    """An ffmpeg that writes half a video, says the disk is full and exits 1, as the real one
+    does on a full disk (imageio's writer took that for success: a truncated video, exit 0)."""
+    import imageio_ffmpeg
+
+    fake = tmp_path_factory.mktemp("bin") / "ffmpeg"
+    fake.write_text('#!/bin/sh\nfor last; do :; done\nhead -c 1000 > /dev/null\n'
+                    'printf "half a video" > "$last"\n'
+                    'echo "[out#0/mp4] Error writing trailer: No space left on device" >&2\n'
+                    'echo "Conversion failed!" >&2\nexit 1\n')
+    fake.chmod(0o755)
+    monkeypatch.setattr(imageio_ffmpeg, "get_ffmpeg_exe", lambda: str(fake))
+
+
+def test_show_video_on_a_full_disk(run_dir, tmp_path, capsys, full_ffmpeg):
+    out = tmp_path / "walk.mp4"
+    out.write_bytes(b"the old video")
+    before = contents(tmp_path)
+    assert main(["show", str(run_dir), "--duration", "1", "--width", "64", "--height", "48",
+                 "--out", str(out)]) == 2
+    one_error(capsys, "walk.mp4", f"cannot write it ({NO_SPACE})")
+    assert contents(tmp_path) == before
+
+
+def test_show_gif_on_a_full_disk(run_dir, tmp_path, capsys, monkeypatch):
+    import PIL.Image
+
+    write_then_fail(monkeypatch, PIL.Image.Image, "save")
+    assert main(["show", str(run_dir), "--duration", "1", "--width", "64", "--height", "48",
+                 "--out", str(tmp_path / "walk.gif")]) == 2
+    one_error(capsys, "walk.gif", f"cannot write it ({NO_SPACE})")
+    assert contents(tmp_path) == {}
+
+
 def test_report_on_a_full_disk(campaign, tmp_path, capsys, monkeypatch):
     out = tmp_path / "report"
     assert main(["report", str(campaign), "--out", str(out), "--quiet"]) == 0
@@ -196,6 +231,86 @@ def test_a_rename_that_fails_is_one_line(campaign, tmp_path, capsys, monkeypatch
     assert main(["report", str(campaign), "--out", str(out), "--quiet"]) == 2
     one_error(capsys, "report.json", f"cannot write it ({os.strerror(errno.EPERM)})")
     assert contents(tmp_path) == before
+
+
+@pytest.fixture
+def old_report(campaign, tmp_path, capsys) -> Path:
+    """A report folder holding a complete report, a figure of an older one and a file of the
+    user's."""
+    out = tmp_path / "report"
+    assert main(["report", str(campaign), "--out", str(out), "--quiet"]) == 0
+    (out / "figures" / "old.png").write_bytes(b"a figure of an older report")
+    (out / "notes.txt").write_text("the user's")
+    capsys.readouterr()
+    return out
+
+
+def test_a_report_failing_midway_keeps_the_old_one_whole(campaign, old_report, tmp_path,
+                                                         capsys, monkeypatch):
+    """report.json is written, index.md meets a full disk: neither replaces the old report."""
+    import somite.report.build
+
+    before = contents(tmp_path)
+    real = somite.report.build.write_atomic
+
+    def full_at_index(path, text, field="out"):
+        if Path(path).name == "index.md":
+            full_os_write(monkeypatch)
+        return real(path, text, field)
+
+    monkeypatch.setattr(somite.report.build, "write_atomic", full_at_index)
+    assert main(["report", str(campaign), "--out", str(old_report), "--quiet"]) == 2
+    err = one_error(capsys, str(old_report), f"cannot write it ({NO_SPACE})")
+    assert ".new" not in err  # the report's file or folder, not the hidden one's
+    assert contents(tmp_path) == before
+
+
+def test_a_report_that_cannot_create_a_folder_is_one_line(campaign, old_report, tmp_path,
+                                                          capsys, monkeypatch):
+    before = contents(tmp_path)
+    mkdir = Path.mkdir
+
+    def refuse_figures(self, *args, **kwargs):
+        if self.name == "figures":
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(self))
+        return mkdir(self, *args, **kwargs)
+
+    monkeypatch.setattr(Path, "mkdir", refuse_figures)
+    assert main(["report", str(campaign), "--out", str(old_report), "--quiet"]) == 2
+    one_error(capsys, f"{old_report}/figures", f"cannot write it ({os.strerror(errno.EACCES)})")
+    assert contents(tmp_path) == before
+    fresh = tmp_path / "fresh"
+    assert main(["report", str(campaign), "--out", str(fresh), "--quiet"]) == 2
+    one_error(capsys, os.strerror(errno.EACCES))
+    assert not fresh.exists()  # nothing left behind
+
+
+def test_a_report_whose_swap_fails_puts_the_old_one_back(campaign, old_report, tmp_path,
+                                                         capsys, monkeypatch):
+    before = contents(tmp_path)
+    rename = os.rename
+
+    def refuse_the_new_index(source, target):
+        if Path(source).name == "index.md" and Path(source).parent.name.endswith(".new"):
+            raise OSError(errno.EIO, os.strerror(errno.EIO))
+        return rename(source, target)
+
+    monkeypatch.setattr(os, "rename", refuse_the_new_index)
+    assert main(["report", str(campaign), "--out", str(old_report), "--quiet"]) == 2
+    one_error(capsys, os.strerror(errno.EIO))
+    assert contents(tmp_path) == before
+
+
+def test_a_new_report_replaces_the_old_one_whole(campaign, old_report, capsys):
+    (old_report / "cache").mkdir()
+    (old_report / "cache" / "validation.json").write_text("a cache")
+    assert main(["report", str(campaign), "--out", str(old_report), "--quiet"]) == 0
+    assert sorted(p.name for p in old_report.iterdir()) == sorted(
+        ["cache", "figures", "index.md", "notes.txt", "report.json"]
+        + (["index.html"] if (old_report / "index.html").exists() else []))
+    assert list((old_report / "figures").iterdir()) == []  # the older report's figure is gone
+    assert (old_report / "notes.txt").read_text() == "the user's"
+    assert (old_report / "cache" / "validation.json").read_text() == "a cache"  # kept
 
 
 @pytest.fixture
@@ -238,6 +353,16 @@ def test_a_real_full_disk(run_dir, campaign, small_disk, capsys):
     one_error(capsys, "brain.png", f"cannot write it ({NO_SPACE})")
     assert main(["report", str(campaign), "--out", str(small_disk / "report"), "--quiet"]) == 2
     one_error(capsys, "report", NO_SPACE)
+    assert contents(small_disk) == before
+
+
+def test_a_real_full_disk_under_a_video(run_dir, small_disk, capsys):
+    """The real ffmpeg on a full 64 KiB tmpfs."""
+    fill(small_disk)
+    before = contents(small_disk)
+    assert main(["show", str(run_dir), "--duration", "1", "--width", "64", "--height", "48",
+                 "--out", str(small_disk / "walk.mp4")]) == 2
+    one_error(capsys, "walk.mp4", f"cannot write it ({NO_SPACE})")
     assert contents(small_disk) == before
 
 

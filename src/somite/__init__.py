@@ -40,7 +40,7 @@ _EXPORTS = {
     "Locomotion": "somite.tasks.task",
     "simulate": "somite.tasks.task",
     "Outcome": "somite.tasks.locomotion",
-    "simulate_batch": "somite.tasks.locomotion:simulate",
+    "simulate_batch": "somite.tasks.locomotion",
     "evaluate_genomes": "somite.tasks.validation:evaluate",
     "validation_terrains": "somite.tasks.validation",
     "fresh_noise": "somite.tasks.validation",

@@ -17,7 +17,9 @@ import argparse
 import errno
 import os
 import pkgutil
+import signal
 import sys
+import threading
 
 from . import commands
 from .errors import SomiteError, bad
@@ -183,7 +185,28 @@ def _too_long_integer(error: ValueError) -> bool:
     return "integer string conversion" in str(error)
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM (``timeout``, a cluster's scheduler, ``kill``), unwound like Ctrl-C: every
+    ``finally`` runs, so no temporary file of an unfinished write is left behind."""
+
+
+def _on_sigterm(signum, frame):
+    raise _Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
+    # Only the main thread may set a handler; a command run from a worker's thread keeps its
+    # process's own.
+    in_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _on_sigterm) if in_main else None
+    try:
+        return _main(argv)
+    finally:
+        if in_main:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+
+
+def _main(argv: list[str] | None) -> int:
     # A file name that is not UTF-8 (bytes given on the command line) is printed escaped,
     # not turned into a UnicodeEncodeError after the work is done.
     for stream in (sys.stdout, sys.stderr):
@@ -221,9 +244,19 @@ def _run(argv: list[str] | None, prog: list[str]) -> int:
     except SomiteError as error:
         _say(f"{args.prog}: error: {error}")
         return 2
+    except _Terminated:
+        _say(f"{args.prog}: terminated")
+        return 143
     except KeyboardInterrupt:
         _say(f"{args.prog}: interrupted")
         return 130
+    except OSError as error:
+        if error.errno != errno.ENAMETOOLONG:
+            raise
+        # The last resort: a path looked at (is it a folder? is it there?) before it is read,
+        # by code that does not expect the look itself to fail.
+        _say(f"{args.prog}: error: {bad('path', error.filename, error.strerror)}")
+        return 2
     except ValueError as error:
         if not _too_long_integer(error):
             raise

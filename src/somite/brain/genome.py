@@ -30,12 +30,10 @@ import numpy as np
 
 from .._io import parse_json, read_json, write_atomic
 from ..errors import bad
+from ..formats import GENOME
 from ..limits import MAX_WEIGHT
 from ..sim.body import Body
 from .kinds import ACTUATOR, HIDDEN, KIND_CODE, KIND_DTYPE, NODE_KINDS, SENSOR
-
-FORMAT = "somite-genome"
-VERSION = 1
 
 
 @dataclass(frozen=True)
@@ -52,6 +50,13 @@ class Node:
     kind: str
     slot: int | None = None
 
+    def to_dict(self) -> dict:
+        """The node in a genome or module file (``slot`` only for a sensor)."""
+        out = {"id": self.id, "x": self.x, "y": self.y, "kind": self.kind}
+        if self.slot is not None:
+            out["slot"] = self.slot
+        return out
+
 
 @dataclass(frozen=True)
 class Edge:
@@ -61,6 +66,17 @@ class Edge:
     dst: int
     weight: float
     bias: float
+
+    @property
+    def magnitude(self) -> float:
+        """|w| + |b|: how much the edge weighs in the paper's cut ratio eta (eq. 5) and in
+        module discovery."""
+        return abs(self.weight) + abs(self.bias)
+
+    def to_dict(self) -> dict:
+        """The edge in a genome or module file."""
+        return {"src": self.src, "dst": self.dst, "weight": float(self.weight),
+                "bias": float(self.bias)}
 
 
 class BodyTable(NamedTuple):
@@ -176,26 +192,16 @@ class Genome:
     def to_dict(self) -> dict:
         """The JSON-ready form (see the module docstring)."""
         return {
-            "format": FORMAT,
-            "version": VERSION,
+            **GENOME.header(),
             "body": self.body.to_dict(),
-            "nodes": [_node_dict(n) for n in self.nodes],
-            "edges": [
-                {"src": e.src, "dst": e.dst, "weight": float(e.weight), "bias": float(e.bias)}
-                for e in self.edges
-            ],
+            "nodes": [n.to_dict() for n in self.nodes],
+            "edges": [e.to_dict() for e in self.edges],
         }
 
     @classmethod
     def from_dict(cls, data: dict) -> Genome:
         """Inverse of :meth:`to_dict`; also reads the compact form's list rows."""
-        if not isinstance(data, dict):
-            raise bad("genome", type(data).__name__, "expected a JSON object")
-        if data.get("format") != FORMAT:
-            raise bad("format", data.get("format"), f"not a genome file; expected {FORMAT!r}")
-        version = data.get("version")
-        if not _is_int(version) or version != VERSION:
-            raise bad("version", version, f"unsupported; this somite reads version {VERSION}")
+        GENOME.check(data)
         if "body" not in data:
             raise bad("body", None, "a genome file needs the body it was evolved for")
         body = Body.from_dict(data["body"])
@@ -452,13 +458,6 @@ def _check_edges(edges, position: dict, kinds: list):
 
 
 # -- JSON helpers -------------------------------------------------------------------------------
-
-
-def _node_dict(node: Node) -> dict:
-    out = {"id": node.id, "x": node.x, "y": node.y, "kind": node.kind}
-    if node.slot is not None:
-        out["slot"] = node.slot
-    return out
 
 
 def _rows(data: dict, key: str) -> list:

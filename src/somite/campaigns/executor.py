@@ -34,7 +34,7 @@ CONNECT_TIMEOUT = "30s"
 
 
 @dataclass
-class Outcome:
+class Execution:
     """What a call of :func:`execute` did."""
 
     ran: list[str] = field(default_factory=list)
@@ -135,14 +135,14 @@ def dashboard_link(client, local: bool) -> str:
 
 def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
             workers: int | None = None, threads: int | None = None, retries: int = RETRIES,
-            watch: Callable[[Outcome], None] | None = None,
-            connection: Connection | None = None) -> Outcome:
+            watch: Callable[[Execution], None] | None = None,
+            connection: Connection | None = None) -> Execution:
     """Run every unfinished task of the campaign ``doc`` in ``directory``; ``watch`` is called
     about twice a second while it goes on (for a progress view). With ``connection`` (of
     :func:`connect`) the tasks run there, and it is left open; else one is made and closed."""
     directory = Path(directory).resolve()
     tasks = [t for t in doc["tasks"] if not finished(directory, t)]
-    outcome = Outcome()
+    outcome = Execution()
     if not tasks:
         return outcome
     workers, threads = sizing(workers, threads)

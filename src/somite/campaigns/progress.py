@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .directory import state
-from .tasks import estimate
+from .kinds import estimate
 
 
 def states(directory: Path, doc: dict) -> list[dict]:

@@ -7,7 +7,8 @@ same rows as a run never interrupted; a reassembly or discovery is cheap and is 
 again (after removing the temporary files of writes the killed attempt did not finish). So a
 task killed anywhere, with its worker or with the whole campaign, is retried by running it
 again. Each task draws only from its own seed: the worker that runs it, and how many threads
-it has, do not change a number.
+it has, do not change a number. What a task of each kind does is its kind's ``run``
+(:mod:`.kinds`).
 """
 
 from __future__ import annotations
@@ -17,10 +18,11 @@ import time
 from pathlib import Path
 
 from .._io import remove_temporary, write_atomic
-from ..sim.config import CONTROL_HZ
-from .tasks import RUN_EXTRAS, run_steps
+from .kinds import KINDS
+from .kinds.common import run_config
+from .layout import DONE
 
-DONE = "done.json"
+__all__ = ["DONE", "run_config", "run_task"]
 
 
 def run_task(directory: str, task: dict, threads: int = 1, *needed) -> dict:
@@ -36,7 +38,7 @@ def run_task(directory: str, task: dict, threads: int = 1, *needed) -> dict:
     remove_temporary(out)
     _threads(threads)
     start = time.perf_counter()
-    steps = _RUNNERS[task["kind"]](Path(directory), out, task["options"])
+    steps = KINDS[task["kind"]].run(Path(directory), out, task["options"])
     record = {"task": task["id"], "elapsed_s": round(time.perf_counter() - start, 3),
               "robot_control_steps": int(steps),
               "finished": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
@@ -48,57 +50,3 @@ def _threads(threads: int) -> None:
     import numba
 
     numba.set_num_threads(max(1, min(threads, numba.config.NUMBA_NUM_THREADS)))
-
-
-def run_config(options: dict):
-    """The :class:`RunConfig` of an evolve or re-optimisation task's options."""
-    from ..experiments.config import resolve
-
-    return resolve({k: v for k, v in options.items() if k not in RUN_EXTRAS})
-
-
-def _evolve(root: Path, out: Path, options: dict) -> int:
-    from ..experiments.runner import evolve
-
-    ea = evolve(run_config(options), out, resume=True)
-    return run_steps(options, ea.generation)
-
-
-def _reoptimize(root: Path, out: Path, options: dict) -> int:
-    from ..brain.genome import Genome
-    from ..experiments.reoptimize import reoptimize
-
-    start = Genome.load(root / options["start"] / "reassembled.json")
-    donors = [Genome.load(root / d / "best.json") for d in options["donors"]]
-    ea, _, _ = reoptimize(run_config(options), out, start, donors, options["validation"],
-                          resume=True)
-    return run_steps(options, ea.generation)
-
-
-def _reassemble(root: Path, out: Path, options: dict) -> int:
-    from ..brain.genome import Genome
-    from ..experiments.reassembly import write_reassembly
-    from ..sim.config import preset
-
-    genomes = [Genome.load(root / d / "best.json") for d in options["donors"]]
-    partitions = [str(root / p) if p.endswith(".json") else p for p in options["partitions"]]
-    sim = preset(options["preset"], duration=options["duration"],
-                 transient=options["transient"])
-    write_reassembly(out, genomes, options["donors"], partitions, sim,
-                     receiver_shape=options["receiver_shape"], take=options["take"],
-                     validation=options["validation"], seed=options["seed"],
-                     preset=options["preset"])
-    return 3 * options["validation"] * int(round(options["duration"] * CONTROL_HZ))
-
-
-def _discover(root: Path, out: Path, options: dict) -> int:
-    from ..brain.genome import Genome
-    from ..experiments.discovery import write_discovery
-
-    genome = Genome.load(root / options["genome"] / "best.json")
-    write_discovery(out, genome, options["genome"], options["b_min"], options["b_max"])
-    return 0
-
-
-_RUNNERS = {"evolve": _evolve, "reoptimize": _reoptimize, "reassemble": _reassemble,
-            "discover": _discover}

@@ -9,16 +9,18 @@ from pathlib import Path
 
 from ..errors import bad
 
-HELP = ("Run a campaign of experiments (built-in: paper, quick, smoke; or a TOML file) on Dask; "
-        "list the built-ins; show a campaign directory's tasks.")
+# The built-ins' names are `campaign list`'s to give: importing the campaigns here would load
+# the simulator for every command's --help.
+HELP = ("Run a campaign of experiments (a built-in, which `somite campaign list` lists, or a "
+        "TOML file) on Dask; list the built-ins; show a campaign directory's tasks.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", required=True, parser_class=type(parser))
     run = sub.add_parser("run", help="run (or --resume) a campaign into a directory")
     run.add_argument("campaign", nargs="?",
-                     help="a built-in campaign (paper, quick, smoke) or a campaign TOML file; "
-                     "with --resume it may be left out")
+                     help="a built-in campaign (`somite campaign list`; paper-rq1:N for N "
+                     "seeds) or a campaign TOML file; with --resume it may be left out")
     run.add_argument("--out", required=True, help="campaign directory")
     run.add_argument("--resume", action="store_true",
                      help="continue the campaign in --out: finished tasks are skipped, "
@@ -45,14 +47,14 @@ def run(args: argparse.Namespace) -> int:
 
 def load_campaign(name: str):
     """A built-in campaign by name, or a campaign TOML file."""
-    from ..campaigns.builtin import BUDGETS, builtin
+    from ..campaigns.builtin import BUILTINS, builtin, is_builtin
     from ..campaigns.spec import load
 
-    if name in BUDGETS:
+    if is_builtin(name):
         return builtin(name)
     if not name.endswith(".toml") and not Path(name).is_file():
-        raise bad("campaign", name, f"no such built-in campaign ({', '.join(BUDGETS)}) "
-                  "or campaign file")
+        raise bad("campaign", name, f"no such built-in campaign ({', '.join(BUILTINS)}) or "
+                  "campaign file")
     return load(name)
 
 
@@ -68,7 +70,8 @@ def _run(args: argparse.Namespace) -> int:
     sizing(args.workers, args.threads)
     check_scheduler(args.scheduler)
     if args.campaign is None and not args.resume:
-        raise bad("campaign", None, "name a campaign (paper, quick, smoke or a .toml file)")
+        raise bad("campaign", None, "name a campaign (a built-in of `somite campaign list`, or "
+                  "a .toml file)")
     doc = None
     if args.campaign is not None:
         campaign = load_campaign(args.campaign)
@@ -83,7 +86,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.scheduler is None:  # a cluster's size is its own; a local one's is this machine
         from ..budget import check_time, hours
         from ..campaigns.executor import cores
-        from ..campaigns.tasks import estimate
+        from ..campaigns.kinds import estimate
 
         check_time("this campaign", hours(sum(estimate(t) for t in left), cores=cores()),
                    args.yes)
@@ -111,27 +114,25 @@ def _run(args: argparse.Namespace) -> int:
     return 1 if outcome.failed or outcome.skipped else 0
 
 
-_KINDS = ("evolve", "reassemble", "reoptimize", "discover")
-
-
 def _list(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from ..budget import STEPS_PER_CORE_SECOND, about, hours
-    from ..campaigns.builtin import BUDGETS, builtin
+    from ..campaigns.builtin import BUILTINS, builtin
     from ..campaigns.executor import cores
-    from ..campaigns.tasks import estimate, expand
+    from ..campaigns.kinds import KINDS, estimate
+    from ..campaigns.tasks import expand
 
     n = cores()
     rows = []
-    for name in BUDGETS:
+    for name in BUILTINS:
         tasks = expand(builtin(name))
-        kinds = [sum(t["kind"] == k for t in tasks) for k in _KINDS]
+        kinds = [sum(t["kind"] == k for t in tasks) for k in KINDS]
         steps = sum(estimate(t) for t in tasks)
         rows.append([name, str(len(tasks)), *map(str, kinds), f"{steps:.2e}",
                      about(hours(steps, cores=n) * 3600)])
     console = Console()
-    console.print(_fit(console, lambda compact: _list_table(rows, n, compact)))
+    console.print(_fit(console, lambda compact: _list_table(rows, list(KINDS), n, compact)))
     # Through rich, so that the note wraps at the terminal's width too.
     console.print(f"time: the simulation alone (not Dask's start or Numba's first compilation) "
                   f"at {STEPS_PER_CORE_SECOND:,} robot-control-steps/s a core (BENCHMARKS.md, "
@@ -140,7 +141,7 @@ def _list(args: argparse.Namespace) -> int:
     return 0
 
 
-def _list_table(rows: list[list[str]], n: int, compact: bool):
+def _list_table(rows: list[list[str]], kinds: list[str], n: int, compact: bool):
     """The built-ins' table; ``compact``: the long headers on several lines, 80 columns hold
     it then."""
     from rich.table import Table
@@ -148,7 +149,7 @@ def _list_table(rows: list[list[str]], n: int, compact: bool):
     steps = "robot-\ncontrol-\nsteps" if compact else "robot-control-steps"
     time = f"time on\n{n} cores" if compact else f"time on {n} cores"
     grid = Table(title="built-in campaigns", **_style(compact))
-    for name in ("campaign", "tasks", *_KINDS, steps, time):
+    for name in ("campaign", "tasks", *kinds, steps, time):
         grid.add_column(name, justify="left" if name == "campaign" else "right", no_wrap=True)
     for row in rows:
         grid.add_row(*row)

@@ -5,10 +5,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 
 from .._io import json_safe
 from ..errors import bad
+from ..tasks.backends import BACKENDS, backend_help
+from ..tasks.validation import VALIDATION_COUNT
 
 MAX_NUMBER_CHARS = 30
 """The most characters of a number on the command line; a longer one is refused unread (int()
@@ -19,6 +22,12 @@ def _too_long(text: str) -> bool:
     return len(text.strip()) > MAX_NUMBER_CHARS
 
 
+# ASCII digits only: int() and float() also read "4_0", "+4", " 4" and other scripts' digits,
+# which a terrain name refuses; one spelling of a number everywhere.
+_INTEGER = re.compile(r"-?[0-9]+")
+_FLOAT = re.compile(r"-?([0-9]+\.?[0-9]*|\.[0-9]+)([eE][-+]?[0-9]+)?|-?(inf|nan)", re.IGNORECASE)
+
+
 def finite_float(field: str):
     """An argparse type: a finite float, or a one-line error naming ``field``."""
 
@@ -27,6 +36,8 @@ def finite_float(field: str):
             raise argparse.ArgumentTypeError(str(bad(
                 field, text, f"must be a number of at most {MAX_NUMBER_CHARS} characters")))
         try:
+            if not _FLOAT.fullmatch(text):
+                raise ValueError(text)
             value = float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(str(bad(field, text, "must be a number"))) from None
@@ -47,6 +58,8 @@ def whole_int(field: str):
             raise argparse.ArgumentTypeError(str(bad(
                 field, text, f"must be an integer of at most {MAX_NUMBER_CHARS} characters")))
         try:
+            if not _INTEGER.fullmatch(text):
+                raise ValueError(text)
             return int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(str(bad(field, text, "must be an integer"))
@@ -86,11 +99,15 @@ def load_genome(path: str):
     from ..brain.genome import Genome
 
     target = Path(path)
-    if target.is_dir():
+    try:
+        folder, there = target.is_dir(), target.exists()
+    except OSError as error:  # a name too long for the file system, ...
+        raise bad("genome", path, f"cannot read the file ({error.strerror})") from None
+    if folder:
         if not (target / "best.json").is_file():
             raise bad("genome", path, "a run directory without best.json")
         target = target / "best.json"
-    elif not target.exists():
+    elif not there:
         raise bad("genome", path, "no such file or run directory")
     return Genome.load(target)
 
@@ -114,7 +131,7 @@ DEFAULTS = {
     "preset": "paper",
     "shape": "worm",
     "sensors": "paper",
-    "validation": 10,
+    "validation": VALIDATION_COUNT,
 }
 """The one default of each shared option; the library's defaults are the same values
 (``tests/test_cli.py`` checks that ``somite evolve`` records them)."""
@@ -127,8 +144,7 @@ _SHARED = {
     "sensors": ({}, "sensor preset: paper, none, area or all"),
     "validation": ({"type": whole_int("validation"), "metavar": "N"},
                    "how many fixed validation terrains"),
-    "backend": ({"default": "cpu"}, "where episodes run: cpu (default), or cuda (an NVIDIA GPU; "
-                "pip install somite[cuda]); not part of a run's configuration"),
+    "backend": ({"default": "cpu", "metavar": "{" + ",".join(BACKENDS) + "}"}, backend_help()),
     "json": ({"action": "store_true"}, "print JSON"),
     "yes": ({"action": "store_true"}, "start work estimated at more than 12 h on 2 cores "
             "(refused without it)"),
@@ -220,7 +236,7 @@ def check_run_work(config, voxels: int, yes: bool, what: str = "this run") -> No
     """Refuse a run (a :class:`~somite.experiments.config.RunConfig`) that would not finish
     in :data:`~somite.budget.MAX_HOURS` without ``yes``, or whose batches would not fit."""
     from ..budget import check_batch, check_steps
-    from ..campaigns.tasks import run_steps
+    from ..campaigns.kinds.evolve import run_steps
 
     options = config.to_dict()
     check_steps(what, run_steps(options), voxels, yes)

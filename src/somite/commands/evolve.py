@@ -14,6 +14,7 @@ from ..experiments.config import RunConfig, load_toml, resolve
 from ..experiments.runner import RunDirectory, evolve
 from ..tasks.backends import check_backend
 from ..tasks.distributions import DISTRIBUTION_HELP
+from ..tasks.validation import VALIDATION_COUNT
 from ._progress import note_compiling
 from .common import (
     NON_FINITE,
@@ -56,8 +57,8 @@ def add_evolution_options(parser: argparse.ArgumentParser,
                         help="terrains per evaluation, fitness their mean v_x "
                         "(default 1: the paper)")
     parser.add_argument("--validate-every", type=whole_int("validate_every"), metavar="N",
-                        help="log the best's mean v_x on the 10 validation terrains every N "
-                        "generations and at the last (default 50; 0: never)")
+                        help=f"log the best's mean v_x on the {VALIDATION_COUNT} validation "
+                        "terrains every N generations and at the last (default 50; 0: never)")
     parser.add_argument("--omega", type=finite_float("omega"),
                         help=f"modularity bias (default {OperatorConfig().omega:g}: none)")
     parser.add_argument("--modules",

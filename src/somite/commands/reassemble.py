@@ -32,6 +32,7 @@ from .common import (
 
 HELP = "Reassemble a robot from modules of two donor genomes; report eta, v_x and rho."
 
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_genome(parser, "donor1", role="donor 1")
     add_genome(parser, "donor2", role="donor 2")

@@ -35,6 +35,10 @@ def run(args: argparse.Namespace) -> int:
         print(f"wrote {args.out}/index.md and report.json: {done} of {total} tasks finished; "
               f"{cache['genomes_simulated']} bests re-run on the validation terrains, "
               f"{cache['strips_drawn']} time-lapses drawn (the rest from the cache)")
+        missing = report["figures"]["missing"]
+        if missing:
+            print("left empty, as no experiment feeds them (an experiment's `figures` table "
+                  "declares them): " + "; ".join(f"{k} ({why})" for k, why in missing.items()))
     # The banner of index.md, also with --quiet: a caveat on the result, not progress.
     for text in report["caveats"]["banner"]:
         warn(args.prog, text)

@@ -11,7 +11,7 @@ from ..experiments.origin import origin_of
 from ..sim.body import Body
 from ..sim.terrain import TERRAIN_HELP, parse_terrain
 from ..tasks.backends import check_backend
-from ..tasks.locomotion import simulate
+from ..tasks.locomotion import simulate_batch
 from ._progress import note_compiling
 from .common import (
     GENOME_RUN,
@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.json and origin is not None and origin.source:
         print(settings_line(args, config, origin, terrain.name))
     note_compiling()
-    [outcome], _ = simulate([body], [terrain], [controller], config, seeds=args.seed,
+    [outcome], _ = simulate_batch([body], [terrain], [controller], config, seeds=args.seed,
                             backend=check_backend(args.backend))
     report = {
         "shape": body.shape.grid_string(),

@@ -7,7 +7,7 @@ What a *run* needs on top (body, seed, generations, terrains, episodes, checkpoi
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields
 
 from ..errors import bad
 from ..limits import MAX_POPULATION, at_most
@@ -18,10 +18,15 @@ from .operators import OperatorConfig
 SEEDED_MUTANTS = ("population-1", "population")
 _TYPES = {"int": int, "float": (int, float), "str": str, "bool": bool}
 
+OPTION_NAMES = {"partition_spec": "modules"}
+"""Fields of :class:`GAConfig` known by another name as options (``--modules``, TOML and
+``config.json`` keys, errors): the name users have always written."""
+
 
 def check_types(cls, values: dict) -> dict:
     """``values`` checked against the scalar field types of dataclass ``cls`` (a one-line
-    error naming the field), with ints given for float fields made floats."""
+    error naming the field, by its option name), with ints given for float fields made
+    floats."""
     types = {f.name: f.type for f in fields(cls)}
     checked = dict(values)
     for name, value in values.items():
@@ -29,7 +34,7 @@ def check_types(cls, values: dict) -> dict:
         if expected is None:
             continue  # not a scalar field: a nested configuration checks itself
         if not isinstance(value, expected) or (types[name] != "bool" and isinstance(value, bool)):
-            raise bad(name, value, f"must be of type {types[name]}")
+            raise bad(OPTION_NAMES.get(name, name), value, f"must be of type {types[name]}")
         if types[name] == "float":
             # Compared before converted: an integer of 400 digits overflows a float.
             if not (-sys.float_info.max <= value <= sys.float_info.max):
@@ -59,11 +64,13 @@ class GAConfig:
     seeded_mutants : str
         A re-optimisation starts from its genome and ``population-1`` (paper) or
         ``population`` (authors' code) mutants of it.
-    modules : str
+    partition_spec : str
         The partition the biased operators use when ``operators.omega`` != 1: ``paper``,
-        ``worm-halves``, ``biped-legs``, a grid of labels or a partition file (``*.json``).
+        ``worm-halves``, ``biped-legs``, a grid of labels or a partition file (``*.json``);
+        the option ``modules`` (:data:`OPTION_NAMES`), read by :meth:`partition`.
     weights_only : bool
-        The ablation: only ``mutate_edge`` (the probabilities in ``operators`` are ignored).
+        The ablation: weight mutation alone (:meth:`OperatorConfig.weights_only`; the
+        probabilities in ``operators`` are ignored).
     operators : OperatorConfig
         Operator probabilities, sigma, omega and node placement.
     """
@@ -72,7 +79,7 @@ class GAConfig:
     tournament: int = 5
     reevaluate_parents: bool = True
     seeded_mutants: str = "population-1"
-    modules: str = "paper"
+    partition_spec: str = "paper"
     weights_only: bool = False
     operators: OperatorConfig = field(default_factory=OperatorConfig)
 
@@ -90,39 +97,47 @@ class GAConfig:
             raise bad("seeded_mutants", self.seeded_mutants, f"use one of {SEEDED_MUTANTS}")
 
     @classmethod
+    def option_names(cls) -> set[str]:
+        """Every flat option: this class's fields (by :data:`OPTION_NAMES`) and
+        :class:`OperatorConfig`'s."""
+        own = {OPTION_NAMES.get(f.name, f.name) for f in fields(cls)} - {"operators"}
+        return own | {f.name for f in fields(OperatorConfig)}
+
+    @classmethod
     def from_options(cls, options: dict) -> GAConfig:
         """From flat options: this class's fields and :class:`OperatorConfig`'s (``omega``,
         ``p_add_edge``, ...); an unknown key is a one-line error."""
-        own = {f.name for f in fields(cls)} - {"operators"}
-        operator_keys = {f.name for f in fields(OperatorConfig)}
+        known = cls.option_names()
         for key, value in options.items():
-            if key not in own | operator_keys:
+            if key not in known:
                 raise bad(key, value, "unknown option")
         options = check_types(OperatorConfig, options)
+        operator_keys = {f.name for f in fields(OperatorConfig)}
         operators = OperatorConfig(**{k: v for k, v in options.items() if k in operator_keys})
-        return cls(**{k: v for k, v in options.items() if k in own}, operators=operators)
+        field_of = {option: name for name, option in OPTION_NAMES.items()}
+        own = {field_of.get(k, k): v for k, v in options.items() if k not in operator_keys}
+        return cls(**own, operators=operators)
 
     def to_dict(self) -> dict:
-        """Flat: this class's fields and the operators' (the form of TOML and config.json)."""
-        data = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "operators"}
+        """Flat, by option name: this class's fields and the operators' (the form of TOML and
+        config.json)."""
+        data = {OPTION_NAMES.get(f.name, f.name): getattr(self, f.name)
+                for f in fields(self) if f.name != "operators"}
         return {**data, **self.operators.to_dict()}
 
     def variation(self) -> OperatorConfig:
         """The operators mutation uses: ``operators``, or weight mutation alone with
         ``weights_only``."""
-        if not self.weights_only:
-            return self.operators
-        return replace(self.operators, p_mutate_edge=1.0, p_add_edge=0.0, p_remove_edge=0.0,
-                       p_add_node=0.0, p_remove_node=0.0)
+        return self.operators.weights_only() if self.weights_only else self.operators
 
     def partition(self, shape: Shape) -> Partition | None:
         """The partition of ``shape`` the biased operators use (None when omega = 1; a
         partition other than the default is checked all the same, not ignored)."""
         if self.operators.omega == 1.0:
-            if self.modules != "paper":
-                Partition.parse(self.modules, shape)
+            if self.partition_spec != "paper":
+                Partition.parse(self.partition_spec, shape)
             return None
-        return Partition.parse(self.modules, shape)
+        return Partition.parse(self.partition_spec, shape)
 
     def n_seeded_mutants(self) -> int:
         return self.population - (self.seeded_mutants == "population-1")

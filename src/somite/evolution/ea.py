@@ -175,21 +175,27 @@ class GraphEA:
 
     def tell(self, genomes: list[Genome], fitness, non_finite: int | None = None) -> dict:
         """Give the fitness (v_x in m/s, shape (len(genomes),), NaN for a failed episode) of
-        the genomes :meth:`ask` returned; selects the next parents and returns the log row.
+        the genomes :meth:`ask` returned (those objects, or copies equal to them, in the same
+        order); selects the next parents and returns the log row.
         ``non_finite``: how many of their episodes had a non-finite step, for the log."""
         asked = self._asked
         if asked is None:
             raise bad("tell", "genomes", "nothing asked: call ask() first")
-        if len(genomes) != len(asked.genomes) or any(
-            a is not b for a, b in zip(genomes, asked.genomes)
-        ):
-            raise bad("tell", "genomes", "not the genomes the last ask() returned")
+        if len(genomes) != len(asked.genomes):
+            raise bad("tell", f"{len(genomes)} genomes",
+                      f"the last ask() returned {len(asked.genomes)}")
+        for i, (told, own) in enumerate(zip(genomes, asked.genomes)):
+            # Equal, not only the same object: genomes evaluated elsewhere (a Dask worker)
+            # come back as copies.
+            if told is not own and told != own:
+                raise bad("tell", f"genomes[{i}]",
+                          "not the genome the last ask() returned at that position")
         fitness = np.asarray(fitness, dtype=np.float64)
         if fitness.shape != (len(genomes),):
             raise bad("fitness", fitness.shape, f"expected shape ({len(genomes)},)")
         self._asked = None
         if self.population is None:
-            self.population = Population(list(genomes), fitness, list(asked.origins))
+            self.population = Population(list(asked.genomes), fitness, list(asked.origins))
         else:
             self.population = self._select(asked, fitness)
         self.generation += 1

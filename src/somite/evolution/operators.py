@@ -26,7 +26,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -37,22 +37,55 @@ from ..limits import MAX_OMEGA, MAX_OPERATOR_WEIGHT, MAX_SIGMA, at_most
 from ..sim.body import Body
 from ..sim.partition import Partition
 
-OPERATOR_NAMES = ("mutate_edge", "add_edge", "remove_edge", "add_node", "remove_node")
+
+@dataclass(frozen=True)
+class Operator:
+    """One operator of the roulette: its default weight (the paper's, section 5.3) and how
+    :func:`mutate` calls it, ``apply(genome, rng, config, partition) -> child``."""
+
+    default: float
+    apply: Callable
+
+
+OPERATORS: dict[str, Operator] = {
+    "mutate_edge": Operator(0.5, lambda g, rng, c, p: mutate_edge(g, rng, c.sigma)),
+    "add_edge": Operator(0.1, lambda g, rng, c, p: add_edge(g, rng, p, c.omega)),
+    "remove_edge": Operator(0.1, lambda g, rng, c, p: remove_edge(g, rng)),
+    "add_node": Operator(0.15, lambda g, rng, c, p: add_node(g, rng, p, c.omega,
+                                                             c.node_placement)),
+    "remove_node": Operator(0.15, lambda g, rng, c, p: remove_node(g, rng)),
+}
+"""The operators, in roulette order: each gets its ``p_<name>`` field of
+:class:`OperatorConfig` from here, so a new one is one entry (and its function)."""
+
+OPERATOR_NAMES = tuple(OPERATORS)
+WEIGHT_MUTATION = "mutate_edge"
+"""The one operator the weights-only ablation keeps (:meth:`OperatorConfig.weights_only`)."""
 NODE_PLACEMENTS = ("module", "uniform")
 
 
+def _with_operator_weights(cls):
+    """Give ``cls`` a float field ``p_<name>`` per operator of :data:`OPERATORS`, with its
+    default, before the fields it declares itself."""
+    own = cls.__dict__.get("__annotations__", {})
+    cls.__annotations__ = {**{f"p_{name}": "float" for name in OPERATORS}, **own}
+    for name, operator in OPERATORS.items():
+        setattr(cls, f"p_{name}", operator.default)
+    return cls
+
+
 @dataclass(frozen=True)
+@_with_operator_weights
 class OperatorConfig:
     """Operator probabilities and parameters (defaults: the paper's, section 5.3).
 
-    The weights-only ablation is ``OperatorConfig(p_mutate_edge=1, p_add_edge=0,
-    p_remove_edge=0, p_add_node=0, p_remove_node=0)``. Probabilities are relative weights of a
-    roulette, so they need not sum to 1.
+    Probabilities are relative weights of a roulette, so they need not sum to 1; the
+    weights-only ablation is :meth:`weights_only`.
 
     Attributes
     ----------
     p_mutate_edge, p_add_edge, p_remove_edge, p_add_node, p_remove_node : float
-        Roulette weights of the five operators.
+        Roulette weights of the operators, one ``p_<name>`` per entry of :data:`OPERATORS`.
     sigma : float
         Standard deviation of the Gaussian added to a weight and a bias by ``mutate_edge``.
     omega : float
@@ -64,11 +97,6 @@ class OperatorConfig:
         voxel of the body.
     """
 
-    p_mutate_edge: float = 0.5
-    p_add_edge: float = 0.1
-    p_remove_edge: float = 0.1
-    p_add_node: float = 0.15
-    p_remove_node: float = 0.15
     sigma: float = 0.7
     omega: float = 1.0
     node_placement: str = "module"
@@ -102,6 +130,12 @@ class OperatorConfig:
     def probabilities(self) -> tuple[float, ...]:
         """The operator weights, in the order of :data:`OPERATOR_NAMES`."""
         return tuple(float(getattr(self, f"p_{name}")) for name in OPERATOR_NAMES)
+
+    def weights_only(self) -> OperatorConfig:
+        """These options with weight mutation alone on: weight 1 for :data:`WEIGHT_MUTATION`,
+        0 for every other operator of :data:`OPERATORS`."""
+        return replace(self, **{f"p_{name}": float(name == WEIGHT_MUTATION)
+                                for name in OPERATORS})
 
     def to_dict(self) -> dict:
         """The options as a JSON-ready dict."""
@@ -249,15 +283,6 @@ def prune(genome: Genome) -> Genome:
 
 # -- the roulette -------------------------------------------------------------------------------
 
-# name -> how mutate() calls it: (genome, rng, config, partition) -> child.
-_APPLY: dict[str, Callable] = {
-    "mutate_edge": lambda g, rng, c, p: mutate_edge(g, rng, c.sigma),
-    "add_edge": lambda g, rng, c, p: add_edge(g, rng, p, c.omega),
-    "remove_edge": lambda g, rng, c, p: remove_edge(g, rng),
-    "add_node": lambda g, rng, c, p: add_node(g, rng, p, c.omega, c.node_placement),
-    "remove_node": lambda g, rng, c, p: remove_node(g, rng),
-}
-
 
 def mutate(
     genome: Genome,
@@ -283,7 +308,7 @@ def mutate(
     else:
         # Rounding ran the spin past the end: the last operator that can win takes it.
         name = next(n for n, w in zip(reversed(OPERATOR_NAMES), reversed(weights)) if w > 0)
-    return _APPLY[name](genome, rng, config, partition), name
+    return OPERATORS[name].apply(genome, rng, config, partition), name
 
 
 # -- helpers ------------------------------------------------------------------------------------

@@ -5,6 +5,10 @@ Precedence: the preset's values, then the TOML file, then command-line options. 
 :class:`~somite.evolution.operators.OperatorConfig` can be set in TOML at the top level (the
 form ``config.json`` is written in); unknown keys and wrong types are one-line errors naming
 the key.
+
+A :class:`RunConfig` keeps its options as written (its ``config.json``) and parses them once,
+when it is built, into :attr:`RunConfig.setup`: the body, the partition, the terrain
+distribution, the validation set and the episode settings, which the layers below receive.
 """
 
 from __future__ import annotations
@@ -15,15 +19,43 @@ from pathlib import Path
 from .._io import read_toml
 from ..errors import SomiteError, bad
 from ..evolution.config import GAConfig, check_types
-from ..evolution.operators import OperatorConfig
 from ..limits import MAX_EVALUATIONS, MAX_GENERATIONS, at_most
 from ..sim.body import Body
 from ..sim.config import PRESETS as SIM_PRESETS
-from ..tasks.distributions import parse_distribution
+from ..sim.config import SimConfig
+from ..sim.config import preset as sim_preset
+from ..sim.partition import Partition
+from ..tasks.distributions import TerrainDistribution, parse_distribution
 from ..tasks.task import Locomotion
+from ..tasks.validation import ValidationSet
 
 RANDOM_TERRAIN = "hilly-1-10-rnd"
 """The paper's training terrains: a fresh ``hilly-1-10-SEED`` for every evaluation."""
+
+
+@dataclass(frozen=True)
+class RunSetup:
+    """A run's options parsed, once (:attr:`RunConfig.setup`).
+
+    Attributes
+    ----------
+    body : Body
+        From ``shape`` and ``sensors``.
+    partition : Partition or None
+        The partition the biased operators use (``modules``; None when omega is 1).
+    terrains : TerrainDistribution
+        The training distribution (``terrain``).
+    validation : ValidationSet
+        The validation terrains the log's ``validation_velocity`` is measured on.
+    sim : SimConfig
+        The episode settings (``preset``, ``duration``, ``transient``).
+    """
+
+    body: Body
+    partition: Partition | None
+    terrains: TerrainDistribution
+    validation: ValidationSet
+    sim: SimConfig
 
 
 @dataclass(frozen=True)
@@ -83,23 +115,34 @@ class RunConfig:
             raise bad("seed", self.seed, "must be in [0, 2**32)")
         at_most("generations", self.generations, MAX_GENERATIONS)
         at_most("evaluations", self.evaluations, MAX_EVALUATIONS)
-        parse_distribution(self.terrain)
-        body = self.body()  # validates shape and sensors before any run starts
+        terrains = parse_distribution(self.terrain)
+        body = Body.build(self.shape, self.sensors)  # shape and sensors, before any run starts
         try:  # and the partition omega uses, for that shape
-            self.ga.partition(body.shape)
+            partition = self.ga.partition(body.shape)
         except SomiteError as error:
-            raise bad("modules", self.ga.modules, str(error).split(": ", 1)[-1]) from None
-        self.task()  # validates duration and transient
+            raise bad("modules", self.ga.partition_spec, str(error).split(": ", 1)[-1]) from None
+        sim = sim_preset(self.preset, duration=float(self.duration),
+                         transient=float(self.transient))
+        # Not a field: config.json, equality and the fingerprint are the options as written.
+        object.__setattr__(self, "_setup", RunSetup(body, partition, terrains, ValidationSet(),
+                                                    sim))
+        self.task()  # refuses a validation terrain as the training terrain
+
+    @property
+    def setup(self) -> RunSetup:
+        """The options parsed (when this configuration was built)."""
+        return self._setup
 
     def body(self) -> Body:
-        return Body.build(self.shape, self.sensors)
+        return self._setup.body
 
     def task(self, body: Body | None = None, backend: str = "cpu") -> Locomotion:
         """The task this run evolves on; with ``body``, genomes of another body are refused.
-        ``backend`` (``cpu``, ``cuda``) is where its episodes run, not part of the run."""
-        return Locomotion(self.terrain, self.duration, evaluations=self.evaluations,
-                          preset=self.preset, transient=self.transient, body=body,
-                          backend=backend)
+        ``backend`` (``cpu``, ``cuda``) is where its episodes run, not part of the run. Every
+        task of a run shares its :attr:`setup` (its validation terrains are built once)."""
+        setup = self._setup
+        return Locomotion(setup.terrains, evaluations=self.evaluations, sim=setup.sim,
+                          validation=setup.validation, body=body, backend=backend)
 
     def validation_due(self, generation: int) -> bool:
         """Whether ``generation``'s best gets a validation velocity in the log."""
@@ -124,8 +167,7 @@ picks the simulator's half (:data:`somite.sim.config.PRESETS`)."""
 
 def option_names() -> set[str]:
     """Every key a TOML file or ``config.json`` may hold."""
-    nested = (RunConfig, GAConfig, OperatorConfig)
-    return {f.name for cls in nested for f in fields(cls)} - {"ga", "operators"}
+    return {f.name for f in fields(RunConfig)} - {"ga"} | GAConfig.option_names()
 
 
 def load_toml(path: str | Path) -> dict:

@@ -11,13 +11,14 @@ run's own and is rewritten.
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
 from .._io import read_text
-from ..errors import bad
+from ..errors import SomiteError, bad
 from .logfile import LOG_COLUMNS
 
 _INTEGERS = ("generation", "evaluations", "best_nodes", "best_edges", "best_size", "nan_count")
@@ -52,9 +53,13 @@ def read_history(folder: Path) -> History:
             raise bad("bests", f"{folder / 'bests.jsonl'}, line {index + 1}",
                       f"generation {best['generation']} where {index} belongs")
     # A generation's row is appended before its best: a kill between leaves one row more.
-    if len(bests) not in (len(rows), len(rows) - 1):
-        raise bad("bests", str(folder / "bests.jsonl"),
-                  f"{len(bests)} generations where log.csv holds {len(rows)}")
+    if len(bests) > len(rows):
+        raise bad("log", f"{folder / 'log.csv'}, line {len(rows) + 2}", f"missing: the log "
+                  f"ends after {len(rows)} generations where bests.jsonl holds {len(bests)}")
+    if len(bests) < len(rows) - 1:
+        raise bad("bests", f"{folder / 'bests.jsonl'}, line {len(bests) + 1}", f"missing: "
+                  f"bests.jsonl ends after {len(bests)} generations where log.csv holds "
+                  f"{len(rows)}")
     for earlier, later in zip(rows, rows[1:]):
         if int(later["evaluations"]) < int(earlier["evaluations"]):
             raise bad("log", f"{folder / 'log.csv'}, generation {later['generation']}",
@@ -82,9 +87,101 @@ def check_checkpoint(history: History, ea, population: int, path: Path) -> None:
                   f"{logged!r} at generation {ea.generation}")
 
 
+def seal_checkpoint(data: dict, folder: Path) -> dict:
+    """``data`` (a checkpoint at ``data["generation"]``) with a short digest of each line of
+    the run's history up to it (``history``: the log rows and bests lines of generations 0 to
+    it, as in ``folder`` now) and a checksum of the whole (``sha256``): a checkpoint, log row
+    or best changed afterwards, even in a value that still parses, is then found by
+    :func:`check_checksum` and :func:`check_history` (naming the line) instead of resumed
+    into another run.
+
+    The wall-clock time (:data:`UNSEALED`) is left out of both, so that a run's checkpoints
+    stay the same from machine to machine, as its other files do; it is only checked to be
+    a time."""
+    sealed = {**data, "history": _line_digests(folder, data["generation"])}
+    sealed["sha256"] = _checksum(sealed)
+    return sealed
+
+
+def check_checksum(data: dict, path: Path) -> None:
+    """Refuse the checkpoint ``data`` (read from ``path``) whose checksum
+    (:func:`seal_checkpoint`) does not match. A checkpoint without one is of a somite before
+    the seal and is read as before."""
+    if "sha256" not in data and "history" not in data:
+        return
+    if data.get("sha256") != _checksum(data):
+        raise bad("checkpoint", str(path), "damaged checkpoint (its checksum does not match "
+                  "its contents)")
+    elapsed = data.get(UNSEALED)
+    if isinstance(elapsed, bool) or not isinstance(elapsed, (int, float)) or not (
+        0 <= elapsed < math.inf
+    ):
+        raise bad("checkpoint.elapsed_seconds", elapsed, "damaged checkpoint (not a time)")
+
+
+def check_history(data: dict, path: Path) -> None:
+    """Refuse the checkpoint ``data`` (read from ``path``, its checksum and generation
+    checked) when the run's log or bests up to its generation are not what they were when it
+    was written, naming the first line that changed."""
+    if "history" not in data:
+        return
+    generation = data["generation"]
+    found = _line_digests(path.parent, generation)
+    for name, first in (("log", 2), ("bests", 1)):
+        file = path.parent / _FILES[name]
+        written, now = data["history"][name], found[name]
+        for index, (old, new) in enumerate(zip(written, now)):
+            if old != new:
+                raise bad(name, f"{file}, line {index + first}", "is not what the run wrote "
+                          f"there (changed after the checkpoint of generation {generation})")
+        if len(now) < len(written):
+            raise bad(name, f"{file}, line {len(now) + first}", f"missing: the checkpoint of "
+                      f"generation {generation} was written after {len(written)} generations")
+
+
+_FILES = {"log": "log.csv", "bests": "bests.jsonl"}
+
+
+UNSEALED = "elapsed_seconds"
+"""The one value of a checkpoint, and the one cell of a log row, that no seal covers: the
+wall-clock time, which is not the same from machine to machine."""
+
+
+def _checksum(data: dict) -> str:
+    """sha256 of ``data`` but its own checksum and the wall-clock time."""
+    sealed = {k: v for k, v in data.items() if k not in ("sha256", UNSEALED)}
+    text = json.dumps(sealed, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _sealed_part(name: str, line: str) -> str:
+    """A log line without its elapsed time; a bests line whole."""
+    if name != "log":
+        return line
+    cells = line.split(",")
+    at = LOG_COLUMNS.index(UNSEALED)
+    return ",".join(cells[:at] + cells[at + 1:])
+
+
+def _line_digests(folder: Path, generation: int) -> dict[str, list[str]]:
+    """A short hash of each complete line of generations 0 to ``generation`` of ``log.csv``
+    and ``bests.jsonl``, as written (a resume's cut-back writes them again byte for byte).
+    Eight hex digits a line: a few kB for thousands of generations."""
+    return {name: [hashlib.sha256(_sealed_part(name, line).encode("utf-8")).hexdigest()[:8]
+                   for _, line in _complete_lines(folder / file, name, name == "log")[
+                       : generation + 1]]
+            for name, file in _FILES.items()}
+
+
 def _complete_lines(path: Path, field: str, header: bool) -> list[tuple[int, str]]:
     """(line number, text) of every complete line, the header (checked) left out."""
-    text = read_text(path, field)
+    try:
+        text = read_text(path, field)
+    except SomiteError:
+        line = _line_not_utf8(path)
+        if line is None:
+            raise
+        raise bad(field, f"{path}, line {line}", "not UTF-8 text") from None
     lines = text.split("\n")
     lines.pop()  # "" after the last newline, or the torn line a kill left
     if header:
@@ -94,6 +191,23 @@ def _complete_lines(path: Path, field: str, header: bool) -> list[tuple[int, str
             raise bad(field, f"{path}, line 1", f"header {found!r} is not somite's log header")
         return list(enumerate(lines[1:], 2))
     return list(enumerate(lines, 1))
+
+
+def _line_not_utf8(path: Path) -> int | None:
+    """The number of the first line of the file ``path`` that is not UTF-8, if that is what
+    :func:`~somite._io.read_text` refused it for (None otherwise: missing, too big, ...)."""
+    from ..limits import MAX_INPUT_BYTES
+
+    try:
+        if not path.is_file() or path.stat().st_size > MAX_INPUT_BYTES:
+            return None
+        data = path.read_bytes()
+        data.decode("utf-8")
+    except UnicodeDecodeError as error:
+        return data.count(b"\n", 0, error.start) + 1
+    except OSError:
+        return None
+    return None
 
 
 def _row(path: Path, number: int, line: str) -> dict:
@@ -129,4 +243,5 @@ def _best(path: Path, number: int, line: str) -> dict:
     return entry
 
 
-__all__ = ["History", "check_checkpoint", "read_history"]
+__all__ = ["History", "check_checkpoint", "check_checksum", "check_history", "read_history",
+           "seal_checkpoint"]

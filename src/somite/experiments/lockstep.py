@@ -19,7 +19,7 @@ import numpy as np
 
 from ..evolution.ea import GraphEA
 from ..tasks.backends import check_backend
-from ..tasks.locomotion import simulate
+from ..tasks.locomotion import simulate_batch
 from ..tasks.task import Locomotion
 from ..tasks.validation import evaluate as evaluate_on
 from ..tasks.velocity import mean_velocity
@@ -79,7 +79,7 @@ def _evaluate_together(runs: list[_Run], asked: list,
     for sim in {r.task.sim for r in runs}:
         members = [i for i, r in enumerate(runs) if r.task.sim == sim]
         batch = [episodes[i] for i in members]
-        outcomes, _ = simulate(
+        outcomes, _ = simulate_batch(
             [b for e in batch for b in e.bodies], [t for e in batch for t in e.terrains],
             [c for e in batch for c in e.controllers], sim,
             np.concatenate([e.seeds for e in batch]), backend=backend,

@@ -15,7 +15,9 @@ from pathlib import Path
 from .._io import make_folder, write_atomic
 from ..errors import bad
 from ..modules.reassembly import Take, paper_takes, reassemble, receiver_for
+from ..modules.transfer import transferability
 from ..sim.partition import Partition
+from ..tasks.validation import VALIDATION_COUNT, validation_terrains
 
 CSV_COLUMNS = (
     "module",
@@ -41,7 +43,7 @@ CSV_COLUMNS = (
 
 def write_reassembly(out: Path, genomes, files, partitions, config, *, receiver_shape=None,
                      receiver_sensors=None, receiver_partition=None, take=None,
-                     validation: int = 10, seed: int = 0, preset: str = "paper",
+                     validation: int = VALIDATION_COUNT, seed: int = 0, preset: str = "paper",
                      draw: bool = False) -> dict:
     """Reassemble the two donor ``genomes`` (named ``files`` in the report) and write
     ``reassembled.json``, ``report.json`` and ``report.csv`` into ``out``; returns the
@@ -70,9 +72,6 @@ def write_reassembly(out: Path, genomes, files, partitions, config, *, receiver_
 
 def _validation(count, seed, preset, reassembled, donors, config) -> dict:
     """v_x of the new robot and both donors on the validation terrains, and rho."""
-    from ..modules.transfer import transferability
-    from ..tasks.validation import validation_terrains
-
     terrains = validation_terrains(count)
     measured = transferability(reassembled, *donors, terrains, config, seed)
     return {

@@ -18,7 +18,7 @@ from pathlib import Path
 from .._io import write_atomic
 from ..brain.genome import Genome
 from ..sim.config import SimConfig
-from ..tasks.validation import evaluate, validation_terrains
+from ..tasks.validation import VALIDATION_COUNT, ValidationSet, evaluate
 from ..tasks.velocity import mean_velocity, rho
 from .config import RunConfig
 from .runner import Progress, RunDirectory, evolve
@@ -26,22 +26,26 @@ from .runner import Progress, RunDirectory, evolve
 TRANSFER_COLUMNS = ("generation", "training_velocity", "validation_velocity", "rho")
 
 
-def donor_velocities(donors: Sequence[Genome], config: SimConfig, n_terrains: int) -> list[float]:
-    """Each donor's mean v_x [m/s] on the validation terrains."""
-    velocities = evaluate(list(donors), validation_terrains(n_terrains), config)
+def donor_velocities(donors: Sequence[Genome], config: SimConfig,
+                     n_terrains: int | ValidationSet) -> list[float]:
+    """Each donor's mean v_x [m/s] on the validation terrains (a count, or the set)."""
+    terrains = ValidationSet.of(n_terrains).terrains
+    velocities = evaluate(list(donors), terrains, config)
     return [float(v) for v in mean_velocity(velocities, axis=1)]
 
 
 def transfer_curve(run: str | Path, donors: Sequence[float], config: SimConfig,
-                   n_terrains: int = 10) -> list[dict]:
+                   n_terrains: int | ValidationSet = VALIDATION_COUNT) -> list[dict]:
     """rho of every generation's best against the donors' mean velocities ``donors`` (empty:
-    no rho), from ``bests.jsonl``; written to ``transfer.csv``."""
+    no rho), from ``bests.jsonl``, on the validation terrains (a count, or the set); written
+    to ``transfer.csv``."""
+    terrains = ValidationSet.of(n_terrains).terrains
     run_dir = RunDirectory(run)
     entries = [json.loads(line) for line in run_dir.file("bests.jsonl").read_text().splitlines()]
     keys = [json.dumps(e["genome"], sort_keys=True) for e in entries]
     distinct = list(dict.fromkeys(keys))
     genomes = [Genome.from_dict(json.loads(k)) for k in distinct]
-    velocities = mean_velocity(evaluate(genomes, validation_terrains(n_terrains), config), axis=1)
+    velocities = mean_velocity(evaluate(genomes, terrains, config), axis=1)
     by_key = dict(zip(distinct, velocities))
     rows = []
     for entry, key in zip(entries, keys):
@@ -62,7 +66,8 @@ def transfer_curve(run: str | Path, donors: Sequence[float], config: SimConfig,
 
 
 def reoptimize(config: RunConfig, out: str | Path | RunDirectory, start: Genome,
-               donors: Sequence[Genome] = (), n_terrains: int = 10, resume: bool = False,
+               donors: Sequence[Genome] = (), n_terrains: int = VALIDATION_COUNT,
+               resume: bool = False,
                force: bool = False, progress: Progress | None = None, backend: str = "cpu"):
     """Re-evolve ``start`` into the run directory ``out`` (:func:`~.runner.evolve`), then write
     ``transfer.csv`` against the ``donors``. The directory stays locked until that is written,
@@ -73,9 +78,13 @@ def reoptimize(config: RunConfig, out: str | Path | RunDirectory, start: Genome,
         with RunDirectory(out.path if isinstance(out, RunDirectory) else out).locked() as run_dir:
             return reoptimize(config, run_dir, start, donors, n_terrains, resume, force,
                               progress, backend)
-    sim = config.task().sim
+    sim = config.setup.sim
+    # The run's own validation set when rho is measured on as many terrains: built once.
+    validation = config.setup.validation
+    if validation.count != n_terrains:
+        validation = ValidationSet(n_terrains)
     ea = evolve(config, out, resume=resume, force=force, progress=progress, start=start,
                 backend=backend)
-    velocities = donor_velocities(donors, sim, n_terrains) if donors else []
-    rows = transfer_curve(out.path, velocities, sim, n_terrains)
+    velocities = donor_velocities(donors, sim, validation) if donors else []
+    rows = transfer_curve(out.path, velocities, sim, validation)
     return ea, rows, velocities

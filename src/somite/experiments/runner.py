@@ -7,7 +7,9 @@ A run directory holds
 - ``bests.jsonl``: the best genome of every generation, one compact JSON object a line;
 - ``best.json``: the best genome so far with its body (any command that takes a genome reads it);
 - ``checkpoint.json``: population, fitness, origins and both generators' states, written
-  atomically at generation 0, every ``checkpoint_every`` generations and at the end;
+  atomically at generation 0, every ``checkpoint_every`` generations and at the end, sealed
+  with a checksum and a digest of every log row and best up to it
+  (:func:`~.history.seal_checkpoint`);
 - ``manifest.json``: the files above that the run wrote (``transfer.csv`` too, for a
   re-optimisation), written before them: ``--force`` deletes these and refuses a folder
   holding anything else;
@@ -46,29 +48,29 @@ from .._io import (
 from ..brain.genome import Genome
 from ..errors import bad
 from ..evolution.ea import GraphEA
-from ..sim.body import Body, Shape
+from ..formats import CHECKPOINT, MANIFEST_FILE
+from ..sim.body import Body
 from .config import RunConfig, resolve
-from .history import History, check_checkpoint, read_history
+from .history import (
+    History,
+    check_checkpoint,
+    check_checksum,
+    check_history,
+    read_history,
+    seal_checkpoint,
+)
 from .lock import LOCK_NAME, RunLock
 from .logfile import LOG_COLUMNS, format_row
 
 RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json",
              "transfer.csv")
 MANIFEST = "manifest.json"
-MANIFEST_FORMAT = "somite-run-manifest"
 """``manifest.json`` lists the files a run wrote: the only ones ``--force`` deletes."""
 def _is_temporary(name: str) -> bool:
     """A temporary file of a run file's write, or of an output folder's check."""
     match = TEMPORARY.fullmatch(name)
     return bool(match and match["name"] in (*RUN_FILES, MANIFEST)) or name.startswith(
         CHECK_PREFIX)
-
-
-CHECKPOINT_FORMAT = "somite-checkpoint"
-CHECKPOINT_VERSION = 3
-"""Version 3 (issue 10): the checkpoint holds its run's fingerprint (:func:`run_fingerprint`).
-Version 2 (issue 9): two generators (variation, evaluation) instead of one. An older
-checkpoint cannot be resumed: it cannot be tied to its run, or its draws are not version 3's."""
 
 
 def run_fingerprint(config: RunConfig, body: Body) -> str:
@@ -82,9 +84,9 @@ def run_fingerprint(config: RunConfig, body: Body) -> str:
 
 
 def save_checkpoint(path: Path, ea: GraphEA, config: RunConfig) -> None:
-    data = {"format": CHECKPOINT_FORMAT, "version": CHECKPOINT_VERSION,
+    data = {**CHECKPOINT.header(),
             "run": run_fingerprint(config, ea.body), **ea.state()}
-    write_atomic(path, json.dumps(data, separators=(",", ":")))
+    write_atomic(path, json.dumps(seal_checkpoint(data, path.parent), separators=(",", ":")))
 
 
 def load_checkpoint(path: Path, config: RunConfig, logged: int) -> GraphEA:
@@ -98,18 +100,14 @@ def load_checkpoint(path: Path, config: RunConfig, logged: int) -> GraphEA:
         data = json.loads(text)
     except (ValueError, RecursionError) as error:
         raise bad("checkpoint", str(path), f"damaged checkpoint ({error})") from None
-    if not isinstance(data, dict) or data.get("format") != CHECKPOINT_FORMAT:
-        raise bad("checkpoint", str(path), "damaged checkpoint (not a somite checkpoint)")
-    if data.get("version") != CHECKPOINT_VERSION:
-        raise bad("checkpoint", str(path),
-                  f"version {data.get('version')!r} cannot be resumed by this somite (it reads "
-                  f"version {CHECKPOINT_VERSION}); start the run again")
+    CHECKPOINT.check(data, "checkpoint", str(path))
     generation = data.get("generation")
     if not isinstance(generation, int) or isinstance(generation, bool) or not (
         0 <= generation < logged
     ):
         held = f"generations 0 to {logged - 1}" if logged else "no generation"
         raise bad("checkpoint.generation", generation, f"log.csv holds {held}")
+    check_checksum(data, path)
     try:
         ea = GraphEA.restore(data, config.ga)
     except (ValueError, KeyError, TypeError, AttributeError, IndexError, OverflowError,
@@ -118,6 +116,7 @@ def load_checkpoint(path: Path, config: RunConfig, logged: int) -> GraphEA:
     if data.get("run") != run_fingerprint(config, ea.body):
         raise bad("checkpoint", str(path), "belongs to another run (its configuration or body "
                   "is not this directory's config.json)")
+    check_history(data, path)
     return ea
 
 
@@ -176,9 +175,7 @@ class RunDirectory:
             data = json.loads(self.file(MANIFEST).read_text(encoding="utf-8"))
         except (OSError, ValueError, RecursionError):
             return None
-        if not isinstance(data, dict) or data.get("format") != MANIFEST_FORMAT or not (
-            isinstance(data.get("files"), list)
-        ):
+        if not MANIFEST_FILE.matches(data) or not isinstance(data.get("files"), list):
             return None
         return [n for n in data["files"] if isinstance(n, str) and n in RUN_FILES]
 
@@ -188,7 +185,7 @@ class RunDirectory:
         listed = self.manifest()
         if all(n in listed for n in names) and self.file(MANIFEST).is_file():
             return
-        data = {"format": MANIFEST_FORMAT, "files": [*listed, *(n for n in names
+        data = {**MANIFEST_FILE.header(), "files": [*listed, *(n for n in names
                                                                  if n not in listed)]}
         write_atomic(self.file(MANIFEST), json.dumps(data) + "\n")
 
@@ -391,7 +388,7 @@ def open_run(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool
                       f"the checkpoint is at generation {ea.generation} already")
     else:
         body = config.body() if start is None else start.body
-        if body.shape != Shape.parse(config.shape):
+        if body.shape != config.body().shape:
             raise bad("shape", config.shape,
                       f"the start genome's shape is {body.shape.grid_string()}")
         ea = GraphEA(body, seed=config.seed, start=start, config=config.ga)

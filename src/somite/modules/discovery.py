@@ -160,7 +160,7 @@ def _bits(mask: int) -> tuple[int, ...]:
 def score(genome: Genome, sets: tuple[tuple[int, ...], ...]) -> tuple[Candidate, ...]:
     """inside and crossing weight of each set of voxel positions, in the same order."""
     index = genome.index
-    weight = np.array([abs(e.weight) + abs(e.bias) for e in genome.edges], dtype=np.float64)
+    weight = np.array([e.magnitude for e in genome.edges], dtype=np.float64)
     a = index.voxel[index.src]  # (E,) voxel position of each edge's source
     b = index.voxel[index.dst]  # (E,) and of its target
     voxels = genome.body.shape.voxels

@@ -37,13 +37,11 @@ from pathlib import Path
 from .._io import read_json, write_atomic
 from ..brain.genome import Edge, Genome, Node
 from ..errors import SomiteError, bad
+from ..formats import MODULE
 from ..limits import MAX_SHAPE_SIDE
 from ..sim.body import SENSOR_KINDS, Body, Shape, component, is_connected
 from .graft import Graft, graft
 from .module import Module
-
-FORMAT = "somite-module"
-VERSION = 1
 
 _PLACE = re.compile(r"^([^@]+)@(-?\d+),(-?\d+)$")
 
@@ -144,31 +142,21 @@ def module_to_dict(module: Module, provenance: Provenance) -> dict:
     """The JSON form of a module file (see the module docstring); coordinates made relative."""
     module = module.relative()
     return {
-        "format": FORMAT,
-        "version": VERSION,
+        **MODULE.header(),
         "label": module.label,
         "voxels": [
             {"x": x, "y": y, "sensors": list(kinds)}
             for (x, y), kinds in zip(module.voxels, module.sensors)
         ],
-        "nodes": [_node_dict(n) for n in module.nodes],
-        "edges": [
-            {"src": e.src, "dst": e.dst, "weight": float(e.weight), "bias": float(e.bias)}
-            for e in module.edges
-        ],
+        "nodes": [n.to_dict() for n in module.nodes],
+        "edges": [e.to_dict() for e in module.edges],
         "provenance": provenance.to_dict(),
     }
 
 
 def module_from_dict(data, name: str, path: str | None = None) -> LibraryModule:
     """Read the JSON form of a module file; one-line errors for anything malformed."""
-    if not isinstance(data, dict):
-        raise bad("module", type(data).__name__, "expected a JSON object")
-    if data.get("format") != FORMAT:
-        raise bad("format", data.get("format"), f"not a module file; expected {FORMAT!r}")
-    version = data.get("version")
-    if type(version) is not int or version != VERSION:
-        raise bad("version", version, f"unsupported; this somite reads module version {VERSION}")
+    MODULE.check(data)
     try:
         voxels = [(item["x"], item["y"]) for item in _list(data, "voxels")]
         sensors = [_kinds(item["sensors"]) for item in data["voxels"]]
@@ -261,13 +249,6 @@ def _velocity(value) -> float | None:
     return velocity
 
 
-def _node_dict(node: Node) -> dict:
-    out = {"id": node.id, "x": node.x, "y": node.y, "kind": node.kind}
-    if node.slot is not None:
-        out["slot"] = node.slot
-    return out
-
-
 def module_text(module: Module, provenance: Provenance) -> str:
     """The text of a module file."""
     return json.dumps(module_to_dict(module, provenance), allow_nan=False, indent=1) + "\n"
@@ -307,12 +288,15 @@ def list_library(
     paths: list[Path] = []
     for source in sources:
         source = Path(source)
-        if source.is_dir():
-            paths.extend(sorted(source.glob("*.json")))
-        elif source.is_file():
-            paths.append(source)
-        else:
-            raise bad("library", str(source), "no such folder or module file")
+        try:
+            if source.is_dir():
+                paths.extend(sorted(source.glob("*.json")))
+            elif source.is_file():
+                paths.append(source)
+            else:
+                raise bad("library", str(source), "no such folder or module file")
+        except OSError as error:  # a name too long for the file system, an unreadable folder
+            raise bad("library", str(source), f"cannot read it ({error.strerror})") from None
     modules: dict[str, LibraryModule] = {}
     for path in paths:
         item = load_module(path)
@@ -446,8 +430,6 @@ def _build(placements: Sequence[Placement], owner: dict, offsets: list) -> Genom
 
 
 __all__ = [
-    "FORMAT",
-    "VERSION",
     "LibraryModule",
     "Placement",
     "Provenance",

@@ -300,8 +300,8 @@ def pooled(disassemblies: Sequence[Disassembly]) -> CutRatio:
 
 
 def _weights(edges: Sequence[Edge]) -> list[float]:
-    """|w| + |b| of each edge, the paper's measure of an edge's size (eq. 5)."""
-    return [abs(e.weight) + abs(e.bias) for e in edges]
+    """:attr:`~somite.brain.genome.Edge.magnitude` (|w| + |b|) of each edge."""
+    return [e.magnitude for e in edges]
 
 
 def _check_partition(partition: Partition, shape: Shape, field: str) -> None:

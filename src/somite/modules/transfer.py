@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..brain.genome import Genome
+from ..tasks.validation import evaluate, validation_terrains
 from ..tasks.velocity import mean_velocity, rho
 from .module import _finite_or_none
 
@@ -17,6 +18,7 @@ RHO_FLOOR = 0.1
 """[m/s] Below this mean donor v_x, rho is flagged as meaning little: it divides by a speed
 that is noise (a still robot drifts up to ~0.005 m/s, a random initial controller moves ~0.01),
 so donors at 0.02 m/s turn a reassembled robot's 1 m/s into rho = 50."""
+
 
 @dataclass(frozen=True)
 class Transferability:
@@ -75,9 +77,6 @@ def transferability(
 
     ``config`` is a :class:`~somite.sim.config.SimConfig` (default: the paper's 30 s episodes).
     """
-    # Imported here: modules/ is pure data and should not load the simulator to be imported.
-    from ..tasks.validation import evaluate, validation_terrains
-
     terrains = validation_terrains() if terrains is None else list(terrains)
     velocity = evaluate([reassembled, donor1, donor2], terrains, config, seed)  # (3, T)
     rows = [tuple(float(v) for v in row) for row in velocity]

@@ -2,7 +2,10 @@
 
 ``DIR/campaign.json`` lists the tasks; ``DIR/<task path>/done.json`` marks a finished one. The
 report trusts nothing else: a task without ``done.json`` is *missing* (its folder may hold a
-partial run), and so is a finished task whose files cannot be read (with the reason).
+partial run), and so is a finished task whose files cannot be read (with the reason). Which
+experiment feeds which figure is each experiment's ``figures`` (:mod:`somite.campaigns.figures`);
+a ``campaign.json`` written before experiments declared them is read with the built-ins'
+declarations (:data:`somite.campaigns.builtin.DECLARED_FIGURES`).
 """
 
 from __future__ import annotations
@@ -10,11 +13,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
+from ..campaigns import figures as figure_table
+from ..campaigns.builtin import DECLARED_FIGURES
 from ..campaigns.directory import read
-from ..campaigns.work import DONE
+from ..campaigns.kinds import KINDS
+from ..campaigns.layout import DONE
 from ..errors import bad
-
-KINDS = ("evolve", "reassemble", "reoptimize", "discover")
 
 
 @dataclass(frozen=True)
@@ -36,14 +40,26 @@ class Task:
 
 
 @dataclass(frozen=True)
-class Campaign:
-    """The campaign: its name, experiments (id -> title and paper reference) and tasks."""
+class CampaignFolder:
+    """A campaign folder as read for its report (a campaign file is
+    :class:`somite.campaigns.spec.Campaign`): its name, experiments (id -> title, paper
+    reference and figures), tasks and ``figures``: figure -> experiment -> its group's label
+    there."""
 
     root: Path
     name: str
     source: str
     experiments: dict[str, dict]
     tasks: tuple[Task, ...]
+    figures: dict[str, dict[str, str]] = field(default_factory=dict)
+
+    def fed(self, figure: str) -> dict[str, str]:
+        """The experiments that feed ``figure``, each with its label, in the campaign's order."""
+        return self.figures.get(figure, {})
+
+    def missing_figures(self) -> dict[str, str]:
+        """Figure -> why no experiment feeds it."""
+        return figure_table.missing(self.figures)
 
     def task(self, task_id: str) -> Task | None:
         return next((t for t in self.tasks if t.id == task_id), None)
@@ -69,7 +85,7 @@ class Campaign:
         return table
 
 
-def read_campaign(root: str | Path) -> Campaign:
+def read_campaign(root: str | Path) -> CampaignFolder:
     """Read ``root/campaign.json``; anything malformed is a one-line error."""
     root = Path(root)
     if not root.is_dir():
@@ -90,8 +106,17 @@ def read_campaign(root: str | Path) -> Campaign:
     # Experiments that only the tasks name still get a section.
     for task in tasks:
         experiments.setdefault(task.experiment, {})
-    return Campaign(root, str(data.get("name", root.name)), str(data.get("source", "")),
-                    experiments, tuple(tasks))
+    return CampaignFolder(root, str(data.get("name", root.name)), str(data.get("source", "")),
+                    experiments, tuple(tasks), _figures(experiments))
+
+
+def _figures(experiments: dict[str, dict]) -> dict[str, dict[str, str]]:
+    if any("figures" in info for info in experiments.values()):
+        declared = {name: info.get("figures", {}) for name, info in experiments.items()}
+    else:  # written before experiments declared their figures: the built-ins' names
+        declared = {name: DECLARED_FIGURES[name] for name in experiments
+                    if name in DECLARED_FIGURES}
+    return figure_table.declared(declared)
 
 
 def _task(root: Path, item) -> Task:
@@ -121,4 +146,4 @@ def task_row(task: Task, done: bool) -> dict:
     return {"task": task.id, "experiment": task.experiment, "done": done}
 
 
-__all__ = ["Campaign", "KINDS", "Task", "read_campaign", "task_row"]
+__all__ = ["CampaignFolder", "KINDS", "Task", "read_campaign", "task_row"]

@@ -10,7 +10,7 @@ MIN_GROUP_SIZE`, marked beside each p-value as well).
 from __future__ import annotations
 
 from ..analysis.stats import MIN_GROUP_SIZE, RunLog, describe, measures_whole_episode
-from .campaign import Campaign
+from .campaign import CampaignFolder
 
 MIN_GENERATIONS = 100
 """Evolve runs of fewer generations than this get the banner that their numbers mean nothing.
@@ -23,7 +23,7 @@ luck, not what evolution (or omega, or the ablation) did. 100 sits between the t
 that differ in kind: below ``quick``, far above ``smoke``."""
 
 
-def budget(campaign: Campaign, runs: dict[str, RunLog]) -> dict:
+def budget(campaign: CampaignFolder, runs: dict[str, RunLog]) -> dict:
     """Generations and population of the finished evolve runs (``runs``: task id -> run),
     and the caveat when every one of them falls short of :data:`MIN_GENERATIONS`."""
     evolved = [runs[t.id] for t in campaign.of_kind("evolve") if t.id in runs]
@@ -96,7 +96,7 @@ def _tests(data):
             yield from _tests(value)
 
 
-def caveats(campaign: Campaign, runs: dict[str, RunLog], report: dict) -> dict:
+def caveats(campaign: CampaignFolder, runs: dict[str, RunLog], report: dict) -> dict:
     """report.json's ``caveats``: each of the three, and ``banner``, the texts of those that
     apply, in the order index.md shows them."""
     out = {"budget": budget(campaign, runs), "whole_episode": whole_episode(runs),

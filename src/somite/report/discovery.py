@@ -12,12 +12,12 @@ import numpy as np
 
 from ..analysis.stats import describe
 from . import paper
-from .campaign import Campaign, task_row
+from .campaign import CampaignFolder, task_row
 from .evolution import shape_order
 from .load import Loaded, shape_name
 
 
-def discovery_rows(campaign: Campaign, loaded: Loaded) -> list[dict]:
+def discovery_rows(campaign: CampaignFolder, loaded: Loaded) -> list[dict]:
     """One row per discover task: the partition, the most compact module and its score."""
     rows = []
     for task in campaign.of_kind("discover"):

@@ -1,9 +1,11 @@
 """The evolution experiments in numbers: Table 1, the curves of Figures 3 and 10 and the
 final-v_x comparisons of Figures 5 and 11 (each also on the validation terrains).
 
-Runs are grouped per shape (biped, worm) and per experiment of the built-in campaigns: ``rq1``
-(omega 1), ``ablation`` (weights only), ``omega-10`` and ``omega-0.1``. Statistics are those of
-:mod:`somite.analysis.stats` (median, sd with ddof 0, two-sided Mann-Whitney U).
+Runs are grouped per shape (biped, worm) and per experiment that feeds the figure, as the
+campaign declares (``campaign.fed("figure3")``: experiment -> label; in the built-ins ``rq1``
+for Figure 3, ``rq1`` and ``ablation`` for Figure 5, the omega experiments for Figures 10 and
+11, ``rq1`` beside the paper's Table 1). Statistics are those of :mod:`somite.analysis.stats`
+(median, sd with ddof 0, two-sided Mann-Whitney U).
 """
 
 from __future__ import annotations
@@ -13,13 +15,9 @@ import numpy as np
 from ..analysis.stats import RunLog, describe, pairwise_mann_whitney, small_sample_caveat
 from ..viz.plots import curve
 from . import paper
-from .campaign import Campaign, Task
+from .campaign import CampaignFolder, Task
 from .load import Loaded, shape_name
 
-FIGURE3 = {"rq1": "omega 1"}
-FIGURE5 = {"rq1": "topology + weights", "ablation": "weights only"}
-FIGURE10 = {"omega-0.1": "omega 0.1 (less modular)", "rq1": "omega 1 (neutral)",
-            "omega-10": "omega 10 (more modular)"}
 SHAPES = ("biped", "worm")
 """The paper's panel order: biped left, worm right."""
 
@@ -41,7 +39,7 @@ def shape_order(shapes) -> list[str]:
     return sorted(set(shapes), key=lambda s: (SHAPES.index(s) if s in SHAPES else 9, s))
 
 
-def groups(campaign: Campaign, loaded: Loaded, members: dict[str, str]) -> Groups:
+def groups(campaign: CampaignFolder, loaded: Loaded, members: dict[str, str]) -> Groups:
     """The finished runs of the experiments ``members`` (id -> label), per shape and label."""
     found: dict[str, dict[str, dict[str, RunLog]]] = {}
     for experiment, label in members.items():
@@ -57,7 +55,7 @@ def _column(runs: dict[str, RunLog], column: str, row: int) -> list[float]:
     return [float(run.log[column][row]) for run in runs.values()]
 
 
-def table1(campaign: Campaign, loaded: Loaded, reruns: dict[str, dict]) -> list[dict]:
+def table1(campaign: CampaignFolder, loaded: Loaded, reruns: dict[str, dict]) -> list[dict]:
     """One row per evolve experiment and shape: initial and final |V|, |E|, |G| and v_x of
     the best (median, sd, ...), its v_x on the validation terrains, the paper's numbers."""
     rows = []
@@ -83,7 +81,8 @@ def table1(campaign: Campaign, loaded: Loaded, reruns: dict[str, dict]) -> list[
             row["validation"] = describe(means[np.isfinite(means)])
             row["validation_non_finite"] = int(np.sum(~np.isfinite(means)))
             row["size_increase"] = _increase(row)
-            row["paper"] = _paper_table1(experiment, shape)
+            beside = experiment in campaign.fed("table1")
+            row["paper"] = _paper_table1(shape) if beside else None
             rows.append(row)
     return rows
 
@@ -93,8 +92,8 @@ def _increase(row: dict) -> float:
     return end / start - 1 if start == start and start else float("nan")
 
 
-def _paper_table1(experiment: str, shape: str) -> dict | None:
-    if experiment != "rq1" or shape not in paper.TABLE1:
+def _paper_table1(shape: str) -> dict | None:
+    if shape not in paper.TABLE1:
         return None
     rows = paper.TABLE1[shape]
     return {
@@ -165,5 +164,5 @@ def one_sided(comparison: dict, a: str, b: str) -> dict | None:
             "caveat": small_sample_caveat(n_a, n_b)}
 
 
-__all__ = ["FIGURE10", "FIGURE3", "FIGURE5", "compare", "curves", "final_comparison", "groups",
+__all__ = ["compare", "curves", "final_comparison", "groups",
            "one_sided", "shape_order", "table1", "task_shape"]

@@ -104,14 +104,27 @@ def _status(report: dict) -> list[str]:
     lines += _table(["experiment", "title", "paper", "tasks", "finished", "missing"], rows)
     for task, why in report["status"]["unreadable"].items():
         lines.append(f"- {task}: finished but unreadable, shown as missing ({why})")
-    return lines + [""] if report["status"]["unreadable"] else lines
+    if report["status"]["unreadable"]:
+        lines.append("")
+    return lines + _missing_figures(report)
+
+
+def _missing_figures(report: dict) -> list[str]:
+    """One line: the figures no experiment of the campaign feeds, and why (report.json's
+    ``figures.missing``; an experiment declares them in its ``figures`` table)."""
+    missing = (report.get("figures") or {}).get("missing") or {}
+    if not missing:
+        return []
+    reasons = "; ".join(f"{name}: {why}" for name, why in missing.items())
+    return [f"Figures no experiment feeds (declared by an experiment's `figures` table in the "
+            f"campaign file), left empty: {reasons}.", ""]
 
 
 def _table1(report: dict) -> list[str]:
     lines = ["## Table 1: the best controller at the start and at the end", "",
              "Median ± sd across runs of the best individual's |V|, |E|, |G| and v_x [m/s] at "
-             "generation 0 and at the last generation; the paper's row (rq1, 10 runs, 3000 "
-             "generations) below ours.", ""]
+             "generation 0 and at the last generation; the paper's row (its RQ1, 10 runs, 3000 "
+             "generations) below ours, for the experiment that declares `table1`.", ""]
     rows = []
     for row in report["table1"]:
         i, f = row["initial"], row["final"]
@@ -143,7 +156,7 @@ def _table1(report: dict) -> list[str]:
 
 def _curves(report: dict) -> list[str]:
     lines = []
-    for key, title in (("figure3", "Figure 3: best v_x and |G| over the generations (rq1)"),
+    for key, title in (("figure3", "Figure 3: best v_x and |G| over the generations"),
                        ("figure10", "Figure 10: best v_x and |G| by omega")):
         lines += [f"## {title}", "",
                   "Median ± sd across runs (line and band); dashed with dots: the median of the "

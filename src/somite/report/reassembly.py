@@ -3,7 +3,9 @@ the discovered modules), and the cut ratios eta by omega (Figure 9).
 
 A re-optimisation is tied to its reassembly (its ``start`` option, else the reassemble task it
 needs), and a reassembly to its donors (its ``donors`` option, else the evolve tasks it needs);
-omega is the donors' (their ``config.json``, else their task options). rho is read from
+omega is the donors' (their ``config.json``, else their task options). Which experiments feed
+Figures 7, 8 and 9 and the discovered modules' curve is the campaign's declaration
+(``campaign.fed("figure7")``). rho is read from
 ``transfer.csv``, which ``somite reoptimize`` measured on the validation terrains; eta is the
 reassembly's pooled cut ratio (the authors' count over both donors; docs/decisions.md, "Cut
 ratios").
@@ -16,16 +18,12 @@ import numpy as np
 from ..analysis.stats import RunLog
 from ..viz.plots import curve
 from . import paper
-from .campaign import Campaign, Task, task_row
+from .campaign import CampaignFolder, Task, task_row
 from .evolution import compare, shape_order
 from .load import Loaded, shape_name
 
-FIGURE7 = {"rq2-homo": "homogeneous", "rq2-hetero": "heterogeneous"}
-FIGURE8 = ("rq2-homo", "omega-reassembly")
-DISCOVERED = "rq3-reassembly"
 
-
-def _linked(campaign: Campaign, task: Task, option: str, kind: str) -> list[Task]:
+def _linked(campaign: CampaignFolder, task: Task, option: str, kind: str) -> list[Task]:
     value = task.options.get(option)
     ids = [value] if isinstance(value, str) else value if isinstance(value, list) else None
     if ids is None:
@@ -41,7 +39,7 @@ def omega_of(task: Task, loaded: Loaded) -> float | None:
     return float(value) if isinstance(value, (int, float)) else None
 
 
-def donors_omega(campaign: Campaign, reassembly: Task, loaded: Loaded) -> float | None:
+def donors_omega(campaign: CampaignFolder, reassembly: Task, loaded: Loaded) -> float | None:
     """The omega of the donors when they share one, else None."""
     values = {omega_of(t, loaded) for t in _linked(campaign, reassembly, "donors", "evolve")}
     return values.pop() if len(values) == 1 else None
@@ -51,7 +49,7 @@ def omega_label(omega: float | None) -> str:
     return "omega ?" if omega is None else f"omega {omega:g}"
 
 
-def reassembly_rows(campaign: Campaign, loaded: Loaded) -> list[dict]:
+def reassembly_rows(campaign: CampaignFolder, loaded: Loaded) -> list[dict]:
     """One row per reassemble task: receiver shape, kind, omega and the pooled eta."""
     rows = []
     for task in campaign.of_kind("reassemble"):
@@ -70,7 +68,7 @@ def reassembly_rows(campaign: Campaign, loaded: Loaded) -> list[dict]:
     return rows
 
 
-def reoptimization_rows(campaign: Campaign, loaded: Loaded) -> list[dict]:
+def reoptimization_rows(campaign: CampaignFolder, loaded: Loaded) -> list[dict]:
     """One row per reoptimize task: its reassembly's shape, kind and omega; rho at the start
     and at the end of the re-optimisation."""
     eta = {row["task"]: row for row in reassembly_rows(campaign, loaded)}
@@ -121,18 +119,27 @@ def _rho_run(loaded: Loaded, task_id: str) -> RunLog:
     return RunLog(loaded.runs[task_id].path, loaded.runs[task_id].config, log)
 
 
-def figure7_label(row: dict) -> str | None:
-    return FIGURE7.get(row["experiment"])
+def figure7_label(campaign: CampaignFolder):
+    """A row's group in Figure 7: its experiment's label there (None: not in it)."""
+    fed = campaign.fed("figure7")
+    return lambda row: fed.get(row["experiment"])
 
 
-def figure8_label(row: dict) -> str | None:
-    if row["experiment"] in FIGURE8 and row.get("kind") == "homogeneous":
-        return omega_label(row["omega"])
-    return None
+def figure8_label(campaign: CampaignFolder):
+    """A row's group in Figure 8: its donors' omega, for the homogeneous reassemblies."""
+    fed = campaign.fed("figure8")
+
+    def label(row: dict) -> str | None:
+        if row["experiment"] in fed and row.get("kind") == "homogeneous":
+            return omega_label(row["omega"])
+        return None
+    return label
 
 
-def discovered_label(row: dict) -> str | None:
-    return "discovered modules" if row["experiment"] == DISCOVERED else None
+def discovered_label(campaign: CampaignFolder):
+    """A row's group in the discovered modules' curve."""
+    fed = campaign.fed("discovered")
+    return lambda row: fed.get(row["experiment"])
 
 
 def end_comparison(found: dict) -> dict:
@@ -142,12 +149,14 @@ def end_comparison(found: dict) -> dict:
             for shape, groups in found.items()}
 
 
-def eta_by_omega(rows: list[dict]) -> dict:
+def eta_by_omega(campaign: CampaignFolder, rows: list[dict]) -> dict:
     """Figure 9: per shape, eta_num and eta_weight of the homogeneous reassemblies of the
-    omega experiments by omega, compared pairwise; the paper's omega-1 medians beside."""
+    experiments that feed Figure 8, by omega, compared pairwise; the paper's omega-1 medians
+    beside."""
     grouped: dict[str, dict[str, list[dict]]] = {}
+    fed = campaign.fed("figure8")
     for row in rows:
-        if row["done"] and row["experiment"] in FIGURE8 and row.get("kind") == "homogeneous":
+        if row["done"] and row["experiment"] in fed and row.get("kind") == "homogeneous":
             grouped.setdefault(row["shape"], {}).setdefault(omega_label(row["omega"]),
                                                             []).append(row)
     out = {}

@@ -22,17 +22,15 @@ from ..analysis.stats import RunLog
 from ..brain.genome import Genome
 from ..errors import SomiteError
 from ..experiments.config import resolve
+from ..formats import REPORT_CACHE
 from ..sim.config import SimConfig
 from ..tasks.validation import evaluate, validation_terrains
 from ..tasks.velocity import mean_velocity
 
-CACHE_FORMAT = "somite-report-cache"
-CACHE_VERSION = 1
-
 
 def episode_settings(run: RunLog) -> SimConfig:
     """The episode settings the run trained with (its ``config.json``)."""
-    return resolve(run.config).task().sim
+    return resolve(run.config).setup.sim
 
 
 def cache_key(genome: Genome, sim: SimConfig, terrains: list[str]) -> str:
@@ -51,16 +49,14 @@ def read_cache(path: Path) -> dict:
         data = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError, RecursionError):
         return {}
-    if not isinstance(data, dict) or data.get("format") != CACHE_FORMAT or data.get(
-        "version"
-    ) != CACHE_VERSION or not isinstance(data.get("entries"), dict):
+    if not REPORT_CACHE.matches(data) or not isinstance(data.get("entries"), dict):
         return {}
     return data["entries"]
 
 
 def write_cache(path: Path, entries: dict) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    data = {"format": CACHE_FORMAT, "version": CACHE_VERSION, "entries": entries}
+    data = {**REPORT_CACHE.header(), "entries": entries}
     write_atomic(path, json.dumps(data, indent=1, allow_nan=True) + "\n")
 
 

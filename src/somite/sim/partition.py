@@ -29,10 +29,8 @@ import numpy as np
 
 from .._io import read_json, write_atomic
 from ..errors import bad
+from ..formats import PARTITION
 from .body import PRESET_SHAPES, Shape, is_connected
-
-FORMAT = "somite-partition"
-VERSION = 1
 
 
 def _worm_halves(x: int, y: int) -> str:
@@ -133,8 +131,7 @@ class Partition:
     def to_dict(self, **notes) -> dict:
         """The file's JSON form (see the module docstring); ``notes`` are added as extra keys."""
         return {
-            "format": FORMAT,
-            "version": VERSION,
+            **PARTITION.header(),
             "shape": self.shape.grid_string(),
             "grid": self.grid_string(),
             "modules": {label: [list(v) for v in self.voxels_of(label)] for label in self.modules},
@@ -147,13 +144,7 @@ class Partition:
     ) -> Partition:
         """Inverse of :meth:`to_dict` (labels from ``modules``); with ``shape``, the data must
         be for that shape. ``where`` names the source in errors (a file's path)."""
-        if not isinstance(data, dict) or data.get("format") != FORMAT:
-            raise bad("partition", where, f"not a {FORMAT!r} file")
-        if type(data.get("version")) is not int or data.get("version") != VERSION:
-            raise bad(
-                "partition", where,
-                f"version {data.get('version')!r} unsupported; this somite reads {VERSION}",
-            )
+        PARTITION.check(data, "partition", where)
         if not isinstance(data.get("shape"), str):
             raise bad("partition", where, f"shape={data.get('shape')!r}: expected a string "
                       "of rows of 1/0")

@@ -17,12 +17,19 @@ another spelling. The numbers of a name:
   ``010000``;
 - DEG: a decimal like H, 0 <= DEG < 60;
 - no number has more than :data:`MAX_NUMBER_CHARS` characters.
+
+The same grammar names the training distributions (:mod:`somite.tasks.distributions`): the last
+number replaced by ``rnd`` (``hilly-1-10-rnd``, ``uphill-rnd``) is drawn afresh per evaluation.
+Every kind, with its numbers, its builder and its draw, is one entry of :data:`KINDS`; the
+parsers and the help texts are written from it.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -170,8 +177,12 @@ def hilly(height: float, width: float, seed: int) -> Terrain:
     """The authors' random walk of heights (docs/original-system.md section 1.5), bit for bit."""
     xs, ys = _hilly_walk(int(seed), float(height), float(width), LENGTH - WALL_WIDTH,
                          WALL_WIDTH, WALL_HEIGHT)
-    name = f"hilly-{_fmt(height)}-{_fmt(width)}-{seed}"
-    return Terrain(name, xs, ys)
+    return Terrain(hilly_name(height, width, seed), xs, ys)
+
+
+def hilly_name(height: float, width: float, seed: int) -> str:
+    """The name of :func:`hilly`'s terrain, without building it."""
+    return f"hilly-{_fmt(height)}-{_fmt(width)}-{seed}"
 
 
 def hilly_reference(height: float, width: float, seed: int) -> tuple[list, list]:
@@ -220,75 +231,167 @@ MAX_SEED = 2**63
 """SEED is below this (a Java long)."""
 MAX_NUMBER_CHARS = 30
 """The most characters of one number in a terrain name (checked before it is read)."""
+N_TRAINING_SEEDS = 10000
+"""``hilly-H-W-rnd`` and ``steppy-H-W-rnd`` draw SEED from [0, 10000), as the original does;
+the validation terrains' seeds start here (:mod:`somite.tasks.validation`)."""
+MAX_SLOPE_DEG = 10.0
+SLOPE_STEP_DEG = 0.5
+"""``uphill-rnd`` and ``downhill-rnd`` draw DEG from {0, 0.5, ..., 10}."""
+RANDOM = "rnd"
+"""In a distribution's name, the number drawn afresh for every evaluation."""
 
-_NUMBER = r"([0-9]+(?:\.[0-9]+)?)"
-_PATTERNS = {
-    "hilly": re.compile(rf"^hilly-{_NUMBER}-{_NUMBER}-([0-9]+)$"),
-    "steppy": re.compile(rf"^steppy-{_NUMBER}-{_NUMBER}-([0-9]+)$"),
-    "uphill": re.compile(rf"^uphill-{_NUMBER}$"),
-    "downhill": re.compile(rf"^downhill-{_NUMBER}$"),
+
+# -- the terrain kinds: one grammar for fixed terrains and distributions -------------------------
+
+
+@dataclass(frozen=True)
+class Field:
+    """One number of a terrain name.
+
+    ``letter`` names it in the grammar and in errors; ``bounds`` says its accepted values in
+    the help; ``checks`` are (test, reason) pairs: a value failing a test is refused with its
+    reason, which names ``letter``; ``whole`` numbers are integers (else decimals);
+    ``example`` is a value it may take (the tests build every kind from them)."""
+
+    letter: str
+    bounds: str
+    checks: tuple[tuple[Callable[[float], bool], str], ...]
+    example: float
+    whole: bool = False
+
+
+@dataclass(frozen=True)
+class TerrainKind:
+    """A kind of terrain: the name ``KIND-N1-...-Nk`` builds ``build(N1, ..., Nk)``.
+
+    ``grammar`` are its numbers (:class:`Field`), in the name's order. A kind with ``sample``
+    also names a distribution, ``KIND-N1-...-rnd``: its last number is drawn afresh,
+    ``sample(rng, n)`` giving ``n`` values of it."""
+
+    grammar: tuple[Field, ...]
+    build: Callable[..., Terrain]
+    sample: Callable[[np.random.Generator, int], list] | None = None
+
+
+def _training_seeds(rng: np.random.Generator, n: int) -> list[int]:
+    return [int(s) for s in rng.integers(0, N_TRAINING_SEEDS, n)]
+
+
+def _slopes(rng: np.random.Generator, n: int) -> list[float]:
+    steps = rng.integers(0, int(MAX_SLOPE_DEG / SLOPE_STEP_DEG) + 1, n)
+    return [SLOPE_STEP_DEG * int(k) for k in steps]
+
+
+H = Field("H", f"0 <= H <= {MAX_SIZE:g} m",
+          ((lambda h: h <= MAX_SIZE, f"the height H must be at most {MAX_SIZE:g} m"),), 1.0)
+W = Field("W", f"0 < W <= {MAX_SIZE:g} m",
+          ((lambda w: w > 0, "the step width W must be positive"),
+           (lambda w: w <= MAX_SIZE, f"the step width W must be at most {MAX_SIZE:g} m")), 10.0)
+SEED = Field("SEED", "0 <= SEED < 2**63",
+             ((lambda s: s < MAX_SEED, "SEED must be below 2**63 (a Java long)"),), 42,
+             whole=True)
+DEG = Field("DEG", f"0 <= DEG < {MAX_SLOPE:g} degrees",
+            ((lambda d: d < MAX_SLOPE, f"slopes must be under {MAX_SLOPE:g} degrees (DEG)"),),
+            5.0)
+
+KINDS: dict[str, TerrainKind] = {
+    "flat": TerrainKind((), flat),
+    "hilly": TerrainKind((H, W, SEED), hilly, _training_seeds),
+    "steppy": TerrainKind((H, W, SEED), steppy, _training_seeds),
+    "uphill": TerrainKind((DEG,), lambda d: slope(d, f"uphill-{_fmt(d)}"), _slopes),
+    "downhill": TerrainKind((DEG,), lambda d: slope(-d, f"downhill-{_fmt(d)}"), _slopes),
 }
-TERRAIN_HELP = ("flat, hilly-H-W-SEED, steppy-H-W-SEED, uphill-DEG or downhill-DEG (H, W in m, "
-                "0 <= H <= 1000, 0 < W <= 1000, 0 <= DEG < 60, each written as the shortest "
-                "decimal: 1 not 1.0, 10000 not 010000)")
+"""Every kind of terrain, by the word its names start with: the one table that the parsers,
+the help texts and the tests read. A new kind is an entry here (and its builder)."""
 
 
-def _read(part: str, text: str, what: str, whole: bool = False) -> tuple[float | int, str]:
-    """The value of the number ``part`` (``what``, e.g. ``H``) of the name ``text``, and its
-    one spelling; a one-line error when it is longer than :data:`MAX_NUMBER_CHARS`."""
-    if len(part) > MAX_NUMBER_CHARS:
-        raise bad("terrain", text, f"{what} has more than {MAX_NUMBER_CHARS} characters")
-    if whole:
-        value = int(part)
-        return value, str(value)
-    value = float(part)
-    return value, _fmt(value)
+def _or(words: list[str]) -> str:
+    return ", ".join(words[:-1]) + f" or {words[-1]}" if len(words) > 1 else words[0]
 
 
-def read_sizes(text: str, height: str, width: str) -> tuple[float, float, str]:
-    """H and W [m] of the hilly or steppy name (or distribution) ``text``, given as the strings
-    ``height`` and ``width``, and their one spelling ``H-W``; a one-line error when they are
-    out of bounds (see the module's docstring)."""
-    h, h_text = _read(height, text, "H")
-    w, w_text = _read(width, text, "W")
-    if not h <= MAX_SIZE:
-        raise bad("terrain", text, f"the height H must be at most {MAX_SIZE:g} m")
-    if not w > 0:
-        raise bad("terrain", text, "the step width W must be positive")
-    if not w <= MAX_SIZE:
-        raise bad("terrain", text, f"the step width W must be at most {MAX_SIZE:g} m")
-    return h, w, f"{h_text}-{w_text}"
+def _help() -> tuple[str, str]:
+    bounds = dict.fromkeys(f.bounds for kind in KINDS.values() for f in kind.grammar)
+    fixed = _or(["-".join([name, *(f.letter for f in kind.grammar)])
+                 for name, kind in KINDS.items()])
+    fixed += (f" ({', '.join(bounds)}; each number written as the shortest decimal: 1 "
+              "not 1.0, 10000 not 010000)")
+    drawn = ", ".join("-".join([name, *(f.letter for f in kind.grammar[:-1]), RANDOM])
+                      for name, kind in KINDS.items() if kind.sample is not None)
+    return fixed, f"{drawn}, or one fixed terrain: {fixed}"
 
 
-def canonical(text: str, name: str, spelled: str) -> None:
-    """Refuse ``name`` (read from ``text``) unless it is ``spelled``, the one spelling of its
-    terrain: ``terrain='hilly-1.0-10-5': write it hilly-1-10-5``."""
-    if name != spelled:
-        raise bad("terrain", text, f"write it {spelled}")
+TERRAIN_HELP, DISTRIBUTION_HELP = _help()
+"""What a terrain name (``--terrain`` of simulate, show) and a training distribution
+(``--terrain`` of evolve) may be, written from :data:`KINDS`."""
+
+_NUMBER = {False: r"([0-9]+(?:\.[0-9]+)?)", True: r"([0-9]+)"}
+
+
+def _pattern(name: str, fields: tuple[Field, ...], tail: tuple[str, ...] = ()) -> re.Pattern:
+    return re.compile("^" + "-".join([re.escape(name), *(_NUMBER[f.whole] for f in fields),
+                                      *tail]) + "$")
+
+
+_FIXED = {name: _pattern(name, kind.grammar) for name, kind in KINDS.items()}
+_DRAWN = {name: _pattern(name, kind.grammar[:-1], (RANDOM,)) for name, kind in KINDS.items()
+          if kind.sample is not None}
+
+
+def _numbers(text: str, fields: tuple[Field, ...], parts: tuple[str, ...]) -> tuple[list, list]:
+    """The values of the numbers ``parts`` of the name ``text`` and their one spelling each;
+    a one-line error naming the field of one too long (over :data:`MAX_NUMBER_CHARS`
+    characters) or out of its bounds."""
+    values, spelled = [], []
+    for field, part in zip(fields, parts):
+        if len(part) > MAX_NUMBER_CHARS:
+            raise bad("terrain", text, f"{field.letter} has more than {MAX_NUMBER_CHARS} "
+                      "characters")
+        value = int(part) if field.whole else float(part)
+        for test, why in field.checks:
+            if not test(value):
+                raise bad("terrain", text, why)
+        values.append(value)
+        spelled.append(str(value) if field.whole else _fmt(value))
+    return values, spelled
+
+
+def _canonical(text: str, name: str, spelled: list[str]) -> None:
+    """Refuse ``name`` (read from ``text``) unless it is ``spelled`` joined, the one spelling
+    of its terrain: ``terrain='hilly-1.0-10-5': write it hilly-1-10-5``."""
+    one = "-".join(spelled)
+    if name != one:
+        raise bad("terrain", text, f"write it {one}")
+
+
+def parse_name(text: str, drawn: bool = False) -> tuple[str, tuple]:
+    """The kind and the numbers of the terrain name ``text`` (the grammar is in the module's
+    docstring), or with ``drawn`` of the distribution name ``KIND-...-rnd`` (its numbers but
+    the drawn one); a one-line error for anything else, naming the one spelling of a name
+    spelled another way."""
+    name = str(text).strip()
+    for kind, pattern in (_DRAWN if drawn else _FIXED).items():
+        match = pattern.match(name)
+        if match:
+            fields = KINDS[kind].grammar
+            values, spelled = _numbers(text, fields[:-1] if drawn else fields, match.groups())
+            _canonical(text, name, [kind, *spelled, *([RANDOM] if drawn else [])])
+            return kind, tuple(values)
+    if drawn:
+        raise bad("terrain", text, f"unknown terrain distribution; use {DISTRIBUTION_HELP}")
+    raise bad("terrain", text, f"unknown terrain; use {TERRAIN_HELP}")
 
 
 def parse_terrain(text: str) -> Terrain:
     """Build a terrain from its name (the grammar is in the module's docstring); raises a
     one-line error for anything else, naming the one spelling of a terrain spelled
     another way."""
-    name = str(text).strip()
-    if name == "flat":
-        return flat()
-    for kind, pattern in _PATTERNS.items():
-        match = pattern.match(name)
-        if not match:
-            continue
-        if kind in ("hilly", "steppy"):
-            height, width, sizes = read_sizes(text, match.group(1), match.group(2))
-            seed, seed_text = _read(match.group(3), text, "SEED", whole=True)
-            if seed >= MAX_SEED:
-                raise bad("terrain", text, "SEED must be below 2**63 (a Java long)")
-            canonical(text, name, f"{kind}-{sizes}-{seed_text}")
-            build = hilly if kind == "hilly" else steppy
-            return build(height, width, seed)
-        degrees, degrees_text = _read(match.group(1), text, "DEG")
-        if not degrees < MAX_SLOPE:
-            raise bad("terrain", text, f"slopes must be under {MAX_SLOPE:g} degrees")
-        canonical(text, name, f"{kind}-{degrees_text}")
-        return slope(degrees if kind == "uphill" else -degrees, name)
-    raise bad("terrain", text, f"unknown terrain; use {TERRAIN_HELP}")
+    kind, values = parse_name(text)
+    return KINDS[kind].build(*values)
+
+
+@functools.lru_cache(maxsize=16384)
+def drawn_terrain(kind: str, values: tuple) -> Terrain:
+    """The terrain of kind ``kind`` with the numbers ``values``, built once: a training run
+    draws from a few thousand terrains many times over (a hilly one takes ~1 ms to build, a
+    steppy one more)."""
+    return KINDS[kind].build(*values)

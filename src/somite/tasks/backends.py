@@ -1,13 +1,53 @@
-"""Where a batch of episodes runs: ``cpu`` (Numba, robots over the cores) or ``cuda`` (one GPU
-thread per robot, :mod:`somite.tasks.cuda_batch`). Both run the same episode code."""
+"""Where a batch of episodes runs: the registry of backends, :data:`BACKENDS`.
+
+Each backend is a batch runner with the signature of :func:`somite.tasks.episode.run_batch`
+(it fills a host :class:`~somite.tasks.episode.Trace`), a check of whether it can run here and
+its line of ``--backend`` help. ``cpu`` runs the robots over the cores (Numba); ``cuda`` runs
+one GPU thread per robot (:mod:`somite.tasks.cuda_batch`). Both run the same episode code.
+
+Adding a backend is one entry here (the command line's help and the tests read the registry).
+"""
 
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
+from dataclasses import dataclass
 
 from ..errors import bad
 
-BACKENDS = ("cpu", "cuda")
+
+@dataclass(frozen=True)
+class Backend:
+    """A batch runner: ``run(system, controllers, params, noise, seeds, n_steps, trace)``;
+    ``unavailable()`` says why it cannot run here (None when it can); ``records``: it can
+    fill a recording trace (every step's positions, ...)."""
+
+    run: Callable
+    unavailable: Callable[[], str | None]
+    records: bool
+    help: str
+
+
+def _run_on_cpu(system, controllers, params, noise, seeds, n_steps, trace) -> None:
+    # Imported when run: the command line reads this registry for its help, without Numba.
+    import numba
+
+    from .episode import run_batch
+
+    # Robots take unequal times (graph sizes, contacts): hand them out one at a time.
+    previous = numba.set_parallel_chunksize(1)
+    try:
+        run_batch(system, controllers, params, noise, seeds, n_steps, trace)
+    finally:
+        numba.set_parallel_chunksize(previous)
+
+
+def _run_on_gpu(system, controllers, params, noise, seeds, n_steps, trace) -> None:
+    # Imported when run: importing it compiles CUDA code, which needs numba-cuda.
+    from .cuda_batch import run_batch
+
+    run_batch(system, controllers, params, noise, seeds, n_steps, trace)
 
 
 def cuda_unavailable() -> str | None:
@@ -28,12 +68,46 @@ def cuda_unavailable() -> str | None:
     return None
 
 
-def check_backend(backend: str) -> str:
-    """``backend`` if it can run here, else a one-line error naming it."""
-    if backend not in BACKENDS:
-        raise bad("backend", backend, f"use one of {list(BACKENDS)}")
-    if backend == "cuda":
-        reason = cuda_unavailable()
-        if reason:
-            raise bad("backend", backend, reason)
+BACKENDS: dict[str, Backend] = {
+    "cpu": Backend(_run_on_cpu, lambda: None, records=True, help="the CPU's cores (default)"),
+    "cuda": Backend(
+        _run_on_gpu,
+        cuda_unavailable,
+        records=False,
+        help="an NVIDIA GPU (pip install somite[cuda])",
+    ),
+}
+"""Backend name -> :class:`Backend`."""
+
+
+def backend_help() -> str:
+    """The ``--backend`` option's help: every registered backend."""
+    listed = "; ".join(f"{name}, {b.help}" for name, b in BACKENDS.items())
+    return f"where episodes run, not part of a run's configuration: {listed}"
+
+
+def get_backend(name: str) -> Backend:
+    """The backend ``name`` if it can run here, else a one-line error naming it."""
+    backend = BACKENDS.get(name)
+    if backend is None:
+        raise bad("backend", name, f"use one of {list(BACKENDS)}")
+    reason = backend.unavailable()
+    if reason:
+        raise bad("backend", name, reason)
     return backend
+
+
+def check_backend(name: str) -> str:
+    """``name`` if that backend can run here, else a one-line error naming it."""
+    get_backend(name)
+    return name
+
+
+__all__ = [
+    "BACKENDS",
+    "Backend",
+    "backend_help",
+    "check_backend",
+    "cuda_unavailable",
+    "get_backend",
+]

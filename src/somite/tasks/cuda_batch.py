@@ -28,6 +28,10 @@ from .episode import Controllers, Trace, episode
 THREADS_PER_BLOCK = 64
 """Robots per thread block: small, since a thread's robot keeps many registers busy."""
 
+TERRAIN_FIELDS = frozenset({"terrain_n", "terrain_x", "terrain_y", "terrain_nx", "terrain_ny"})
+"""The fields of :class:`~somite.sim.system.System` indexed by terrain, not by robot: kept in
+the host's layout (the others, robot axis first, are stored robot-fastest)."""
+
 
 class Work(NamedTuple):
     """Per-robot work arrays of a batch (B robots, padded like the system's arrays)."""
@@ -60,24 +64,40 @@ class Work(NamedTuple):
     h_next: np.ndarray  # (B, N)
 
 
+class _RobotFirst:
+    """A contiguous device array of shape (..., B) seen as (B, ...), through the CUDA array
+    interface (public; numba's ``cuda.as_cuda_array`` reads it): a view, no copy. It keeps
+    the device array alive as long as the view."""
+
+    def __init__(self, device, shape: tuple):
+        self.device = device
+        interface = dict(device.__cuda_array_interface__)
+        strides = interface["strides"] or _c_strides(device.shape, device.dtype.itemsize)
+        interface.update(shape=tuple(shape), strides=(strides[-1], *strides[:-1]))
+        self.__cuda_array_interface__ = interface
+
+
+def _c_strides(shape: tuple, itemsize: int) -> tuple:
+    """The strides of a C-contiguous array (the interface may give None for them)."""
+    strides = [itemsize]
+    for n in reversed(shape[1:]):
+        strides.insert(0, strides[0] * n)
+    return tuple(strides)
+
+
 def robot_major(host: np.ndarray | None, shape: tuple, dtype=np.float64):
     """A device array of ``shape`` (robot axis first), stored with the robot axis fastest;
     a copy of ``host`` when given, else uninitialised."""
     if host is not None:
         shape, dtype = host.shape, host.dtype
-    if len(shape) < 2:
+    if len(shape) < 2 or 0 in shape or config.ENABLE_CUDASIM:
+        # No layout to choose (one axis, or nothing stored); the simulator runs in host memory,
+        # where the layout changes nothing but speed (and its arrays have no CUDA array
+        # interface).
         return cuda.to_device(host) if host is not None else cuda.device_array(shape, dtype)
     moved = np.empty(shape[1:] + shape[:1], dtype) if host is None else np.ascontiguousarray(
         np.moveaxis(host, 0, -1))
-    if config.ENABLE_CUDASIM:
-        from numba.cuda.simulator.cudadrv.devicearray import FakeCUDAArray
-
-        return FakeCUDAArray(np.moveaxis(moved, -1, 0))
-    from numba.cuda.cudadrv.devicearray import DeviceNDArray
-
-    device = cuda.to_device(moved)
-    strides = device.strides[-1:] + device.strides[:-1]
-    return DeviceNDArray(shape, strides, np.dtype(dtype), gpu_data=device.gpu_data)
+    return cuda.as_cuda_array(_RobotFirst(cuda.to_device(moved), shape))
 
 
 def new_work(system, ctrl, params) -> Work:
@@ -154,11 +174,10 @@ def run_batch(system, ctrl: Controllers, params, noise, seeds, n_steps: int,
     n = seeds.shape[0]
     if n == 0:
         return
-    terrain = system._fields.index("terrain_of")
-    device_system = type(system)(*(
-        robot_major(a, a.shape) if i < terrain and a.ndim > 1 else cuda.to_device(a)
-        for i, a in enumerate(system)
-    ))
+    device_system = type(system)(**{
+        name: cuda.to_device(a) if name in TERRAIN_FIELDS else robot_major(a, a.shape)
+        for name, a in system._asdict().items()
+    })
     # The trace keeps the host's layout: a thread writes a few values of it per control step,
     # and the copies back need no transposing.
     device_trace = _upload(trace, robot_axis=False)

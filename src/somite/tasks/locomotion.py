@@ -10,7 +10,6 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from ..brain.controllers import GraphArrays, Sine, Table, Zero
@@ -20,7 +19,7 @@ from ..sim.config import CONTROL_HZ, SimConfig, pack_params
 from ..sim.sensors import noise_table
 from ..sim.system import System, compile_system, pad
 from ..sim.terrain import Terrain
-from .backends import check_backend
+from .backends import BACKENDS, get_backend
 from .episode import (
     D_FLIPPED,
     D_MAX_GAP,
@@ -35,7 +34,6 @@ from .episode import (
     Controllers,
     Trace,
     new_trace,
-    run_batch,
 )
 
 Controller = Zero | Sine | Table | GraphArrays
@@ -179,29 +177,19 @@ def run(
     backend: str = "cpu",
 ) -> Trace:
     """Run a compiled batch; the lowest-level entry point (no checks, no Python objects).
-    ``backend``: ``cpu`` or ``cuda`` (:mod:`somite.tasks.backends`)."""
+    ``backend``: a name in :data:`somite.tasks.backends.BACKENDS`."""
+    runner = get_backend(backend)
+    if record and not runner.records:
+        recording = [name for name, b in BACKENDS.items() if b.records]
+        raise bad("backend", backend, f"cannot record an episode: use {' or '.join(recording)}")
     seeds_arr = np.asarray(seeds, dtype=np.uint64)
     trace = new_trace(len(seeds_arr), config.n_steps, system, record)
-    if backend != "cpu":
-        check_backend(backend)
-        if record:
-            raise bad("backend", backend, "cannot record an episode: use cpu")
-        from .cuda_batch import run_batch as run_on_gpu
-
-        run_on_gpu(system, controllers, pack_params(config), noise_table(config), seeds_arr,
-                   config.n_steps, trace)
-        return trace
-    # Robots take unequal times (graph sizes, contacts): hand them out one at a time.
-    previous = numba.set_parallel_chunksize(1)
-    try:
-        run_batch(system, controllers, pack_params(config), noise_table(config), seeds_arr,
-                  config.n_steps, trace)
-    finally:
-        numba.set_parallel_chunksize(previous)
+    runner.run(system, controllers, pack_params(config), noise_table(config), seeds_arr,
+               config.n_steps, trace)
     return trace
 
 
-def simulate(
+def simulate_batch(
     bodies: Sequence[Body],
     terrains: Sequence[Terrain],
     controllers: Sequence[Controller],

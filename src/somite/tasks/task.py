@@ -22,11 +22,10 @@ from ..sim.config import SimConfig
 from ..sim.config import preset as sim_preset
 from ..sim.terrain import Terrain, parse_terrain
 from .backends import check_backend
-from .distributions import parse_distribution
-from .locomotion import Controller, Outcome
-from .locomotion import simulate as simulate_batch
+from .distributions import TerrainDistribution, parse_distribution
+from .locomotion import Controller, Outcome, simulate_batch
+from .validation import VALIDATION_COUNT, ValidationSet
 from .validation import evaluate as evaluate_on
-from .validation import validation_terrains
 from .velocity import mean_velocity
 
 
@@ -46,10 +45,10 @@ class Locomotion:
 
     Parameters
     ----------
-    terrain : str
+    terrain : str or TerrainDistribution
         A training distribution: ``hilly-H-W-rnd`` (default ``hilly-1-10-rnd``, the paper's),
         ``steppy-H-W-rnd``, ``uphill-rnd``, ``downhill-rnd``, or a fixed terrain such as
-        ``flat`` (see :mod:`somite.tasks.distributions`).
+        ``flat`` (see :mod:`somite.tasks.distributions`), or one already parsed.
     duration : float
         Episode length [s] (30 in the paper).
     evaluations : int
@@ -59,9 +58,9 @@ class Locomotion:
         Simulator preset, ``paper`` or ``original-code``.
     transient : float
         Start of the measured interval [s] (5 in the paper).
-    validation : int
+    validation : int or ValidationSet
         How many fixed validation terrains :meth:`validate` uses (``hilly-1-10-10000``, ...;
-        never training terrains).
+        never training terrains), or the set itself (its terrains, once built, are shared).
     body : Body, optional
         When given, every genome evaluated must drive this body (a one-line error otherwise).
     sim : SimConfig, optional
@@ -73,29 +72,37 @@ class Locomotion:
 
     def __init__(
         self,
-        terrain: str = "hilly-1-10-rnd",
+        terrain: str | TerrainDistribution = "hilly-1-10-rnd",
         duration: float = 30.0,
         *,
         evaluations: int = 1,
         preset: str = "paper",
         transient: float = 5.0,
-        validation: int = 10,
+        validation: int | ValidationSet = VALIDATION_COUNT,
         body: Body | None = None,
         sim: SimConfig | None = None,
         backend: str = "cpu",
     ) -> None:
         self.backend = check_backend(backend)
-        self.terrains = parse_distribution(terrain)
+        self.terrains = (terrain if isinstance(terrain, TerrainDistribution)
+                         else parse_distribution(terrain))
         self.sim = sim or sim_preset(preset, duration=float(duration), transient=float(transient))
-        for name, value in (("evaluations", evaluations), ("validation", validation)):
+        counts = (("evaluations", evaluations),) + (
+            () if isinstance(validation, ValidationSet) else (("validation", validation),))
+        for name, value in counts:
             if not isinstance(value, int) or isinstance(value, bool) or value < 1:
                 raise bad(name, value, "must be an integer >= 1")
         self.evaluations = evaluations
-        self.validation_terrains = validation_terrains(validation)
-        held_out = {t.name for t in self.validation_terrains}
-        if not self.terrains.is_random and self.terrains.name in held_out:
-            raise bad("terrain", terrain, "a validation terrain cannot be a training terrain")
+        self.validation = ValidationSet.of(validation)
+        if not self.terrains.is_random and self.terrains.name in self.validation.names:
+            raise bad("terrain", terrain if isinstance(terrain, str) else self.terrains.name,
+                      "a validation terrain cannot be a training terrain")
         self.body = body
+
+    @property
+    def validation_terrains(self) -> list[Terrain]:
+        """The fixed validation terrains :meth:`validate` runs on (built at the first use)."""
+        return self.validation.terrains
 
     def __repr__(self) -> str:
         return (f"Locomotion(terrain={self.terrains.name!r}, duration={self.sim.duration}, "
@@ -188,7 +195,7 @@ def simulate(
     controller (``Zero()``, ``Sine(...)``, ...) with ``body``. ``terrain`` is a name
     (``flat``, ``hilly-1-10-3``, ...) or a :class:`~somite.sim.terrain.Terrain`; ``seed`` seeds
     the sensor noise; ``backend`` is ``cpu`` or ``cuda``. For batches, see
-    :func:`somite.tasks.locomotion.simulate`.
+    :func:`somite.tasks.locomotion.simulate_batch`.
     """
     if isinstance(robot, Genome):
         if body is not None and body != robot.body:

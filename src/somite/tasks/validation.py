@@ -1,12 +1,15 @@
 """Evaluation of controllers on fixed validation terrains (transferability, ``somite evaluate``).
 
-Training draws hilly seeds from [0, 10000) (docs/original-system.md section 1.5); the validation
-terrains use seeds from 10000 on, so they are never training terrains.
+The validation set is :data:`VALIDATION_COUNT` terrains unless a command is told another count:
+``hilly-1-10-SEED`` for SEED = 10000, 10001, ... Training draws hilly seeds from [0, 10000)
+(docs/original-system.md section 1.5), so they are never training terrains.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -15,10 +18,16 @@ from ..brain.genome import Genome
 from ..errors import bad
 from ..limits import MAX_VALIDATION, at_most
 from ..sim.config import SimConfig
-from ..sim.terrain import Terrain, hilly
-from .locomotion import Outcome, simulate
+from ..sim.terrain import N_TRAINING_SEEDS, Terrain, hilly, hilly_name
+from .locomotion import Outcome, simulate_batch
 
-VALIDATION_SEED0 = 10000
+VALIDATION_COUNT = 10
+"""How many validation terrains a run logs its best's v_x on, and the default of every
+command and campaign that measures on them (``--validation``)."""
+VALIDATION_HEIGHT, VALIDATION_WIDTH = 1.0, 10.0
+VALIDATION_SEED0 = N_TRAINING_SEEDS
+"""Validation terrain i is ``hilly(VALIDATION_HEIGHT, VALIDATION_WIDTH, VALIDATION_SEED0 + i)``:
+``hilly-1-10-10000``, ``hilly-1-10-10001``, ..., just past the training seeds."""
 
 
 def check_count(count: int) -> int:
@@ -29,10 +38,38 @@ def check_count(count: int) -> int:
     return count
 
 
-def validation_terrains(count: int = 10) -> list[Terrain]:
+def validation_terrains(count: int = VALIDATION_COUNT) -> list[Terrain]:
     """The ``count`` fixed hilly validation terrains (hilly-1-10-10000, hilly-1-10-10001, ...)."""
     check_count(count)
-    return [hilly(1.0, 10.0, VALIDATION_SEED0 + i) for i in range(count)]
+    return [hilly(VALIDATION_HEIGHT, VALIDATION_WIDTH, VALIDATION_SEED0 + i)
+            for i in range(count)]
+
+
+@dataclass(frozen=True)
+class ValidationSet:
+    """The first ``count`` validation terrains (checked: 1 to
+    :data:`~somite.limits.MAX_VALIDATION`), built when first needed and then kept: a run, a
+    re-optimisation or a report holds one and hands it on."""
+
+    count: int = VALIDATION_COUNT
+
+    def __post_init__(self) -> None:
+        check_count(self.count)
+
+    @property
+    def names(self) -> list[str]:
+        """The terrains' names, without building them."""
+        return [hilly_name(VALIDATION_HEIGHT, VALIDATION_WIDTH, VALIDATION_SEED0 + i)
+                for i in range(self.count)]
+
+    @functools.cached_property
+    def terrains(self) -> list[Terrain]:
+        return validation_terrains(self.count)
+
+    @classmethod
+    def of(cls, validation: int | ValidationSet) -> ValidationSet:
+        """``validation`` as a set: a count, or a set already built (kept with its terrains)."""
+        return validation if isinstance(validation, ValidationSet) else cls(validation)
 
 
 def evaluate(
@@ -67,7 +104,7 @@ def evaluate_outcomes(
             bodies.append(genome.body)
             worlds.append(terrain)
             controllers.append(arrays)
-    outcomes, _ = simulate(bodies, worlds, controllers, config, seeds=seed, backend=backend)
+    outcomes, _ = simulate_batch(bodies, worlds, controllers, config, seeds=seed, backend=backend)
     n = len(terrains)
     return [outcomes[g * n : (g + 1) * n] for g in range(len(genomes))]
 
@@ -82,6 +119,6 @@ def fresh_noise(genome: Genome, terrain: Terrain, config: SimConfig | None = Non
     one-in-a-billion event), so they say what the genome does, not what it drew."""
     seeds = np.random.SeedSequence(seed).generate_state(n, dtype=np.uint32)
     arrays = compile_genome(genome)
-    outcomes, _ = simulate([genome.body] * n, [terrain] * n, [arrays] * n, config,
+    outcomes, _ = simulate_batch([genome.body] * n, [terrain] * n, [arrays] * n, config,
                            seeds=[int(s) for s in seeds])
     return np.array([o.velocity for o in outcomes], dtype=np.float64)

@@ -6,7 +6,7 @@ shown on screen. :func:`area_ratio`, :func:`voxel_angles` and :func:`lidar_segme
 into world quantities [m]; :func:`moving_average` smooths the centre of mass the camera follows.
 
 This module reads recordings only; :mod:`somite.viz.video` runs the simulation through the
-public :func:`somite.tasks.locomotion.simulate`.
+public :func:`somite.tasks.locomotion.simulate_batch`.
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ class Recording:
     @classmethod
     def from_trace(cls, trace, robot: int, body: Body, terrain: Terrain, config: SimConfig,
                    velocity: float = math.nan) -> Recording:
-        """Robot ``robot`` of a trace recorded with ``simulate(..., record=True)``.
+        """Robot ``robot`` of a trace recorded with ``simulate_batch(..., record=True)``.
 
         The recording is cut before the first step with a non-finite position, if any.
         """

@@ -2,12 +2,14 @@
 
 :func:`render_episode` is the one-call entry point (``make demo`` uses it); ``somite show``
 uses its two halves, :func:`record_episode` (the simulation, through the public
-:func:`somite.tasks.locomotion.simulate`) and :func:`write_episode` (the drawing and writing).
+:func:`somite.tasks.locomotion.simulate_batch`) and :func:`write_episode` (the drawing and writing).
 Every file is written to a temporary name beside the target and renamed when complete.
 """
 
 from __future__ import annotations
 
+import contextlib
+import itertools
 import os
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
@@ -22,7 +24,7 @@ from ..errors import bad
 from ..sim.body import Body
 from ..sim.config import SimConfig, preset
 from ..sim.terrain import Terrain, parse_terrain
-from ..tasks.locomotion import simulate
+from ..tasks.locomotion import simulate_batch
 from .brain import brain_overlay
 from .frame import AREA_RAMP, Overlay, frame_steps, render_frames
 from .output import atomic_output, check_output
@@ -68,7 +70,8 @@ def record_episode(
         controller = compile_genome(controller)
     terrain = parse_terrain(terrain) if isinstance(terrain, str) else terrain
     config = config or preset("paper")
-    [outcome], trace = simulate([body], [terrain], [controller], config, seeds=seed, record=True)
+    [outcome], trace = simulate_batch([body], [terrain], [controller], config, seeds=seed,
+                                      record=True)
     return Recording.from_trace(trace, 0, body, terrain, config, outcome.velocity)
 
 
@@ -138,17 +141,72 @@ def write_video(images: Iterable[Image.Image], out_path: str | os.PathLike, fps:
 
 
 def _write_mp4(images: Iterable[Image.Image], path: Path, fps: float) -> None:
-    import imageio.v2 as imageio
+    """Pipe the frames to ffmpeg (imageio-ffmpeg's binary) and check that it succeeded.
 
-    writer = imageio.get_writer(
-        str(path), format="FFMPEG", mode="I", fps=fps, codec="libx264", quality=8,
-        pixelformat="yuv420p", macro_block_size=2, ffmpeg_log_level="error",
-    )
+    Not imageio's writer: it never looks at ffmpeg's exit status, so a disk that fills up
+    while ffmpeg writes (or its trailer) ends in a truncated file and no error. Here a failed
+    ffmpeg is an OSError whose reason is ffmpeg's (:func:`_ffmpeg_reason`)."""
+    import subprocess
+    import tempfile
+    from fractions import Fraction
+
+    import imageio_ffmpeg
+
+    iterator = iter(images)
+    first = next(iterator, None)
+    if first is None:
+        raise bad("out", str(path), "a video needs at least one frame")
+    width, height = first.size
     try:
-        for image in images:
-            writer.append_data(np.asarray(image))
-    finally:
-        writer.close()
+        ffmpeg = imageio_ffmpeg.get_ffmpeg_exe()
+    except RuntimeError as error:  # no bundled binary for this platform, none on the PATH
+        raise bad("out", str(path), f"cannot write an MP4 without ffmpeg ({error}); write a "
+                  ".gif instead") from None
+    command = [
+        ffmpeg, "-y", "-f", "rawvideo", "-vcodec", "rawvideo",
+        "-s", f"{width}x{height}", "-pix_fmt", "rgb24",
+        "-r", str(Fraction(fps).limit_denominator()), "-i", "-", "-an",
+        # crf 10: what imageio's quality=8 asked of libx264 before.
+        "-vcodec", "libx264", "-pix_fmt", "yuv420p", "-crf", "10", "-v", "error", str(path),
+    ]
+    with tempfile.TemporaryFile() as log:  # not a pipe: ffmpeg could block on a full one
+        process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                                   stderr=log)
+        try:
+            try:
+                for image in itertools.chain([first], iterator):
+                    if image.size != (width, height):
+                        raise ValueError(f"a frame of {image.size} in a video of "
+                                         f"{(width, height)}")
+                    rgb = image if image.mode == "RGB" else image.convert("RGB")
+                    process.stdin.write(rgb.tobytes())
+                process.stdin.close()
+            except BrokenPipeError:  # ffmpeg quit (a full disk?): its exit status says why
+                pass
+            status = process.wait()
+        except BaseException:
+            process.kill()
+            process.wait()
+            raise
+        finally:
+            with contextlib.suppress(OSError):
+                process.stdin.close()
+        if status != 0:
+            log.seek(0)
+            raise OSError(_ffmpeg_reason(log.read().decode("utf-8", "replace"), status))
+
+
+def _ffmpeg_reason(output: str, status: int) -> str:
+    """Why ffmpeg failed in a few words: the OS's reason where it reports one (``No space
+    left on device``), else its last line of error output."""
+    lines = [line.strip() for line in output.splitlines() if line.strip()]
+    if not lines:
+        return f"the encoder ffmpeg failed (exit status {status})"
+    for known in ("No space left on device", "Permission denied", "Read-only file system",
+                  "Disk quota exceeded", "File too large", "Input/output error"):
+        if known in output:
+            return known
+    return f"the encoder ffmpeg failed: {lines[-1][:120]}"
 
 
 def _write_gif(images: Iterable[Image.Image], path: Path, fps: float) -> None:

@@ -1,0 +1,75 @@
+"""The campaign task kinds, in one registry (Gymnasium's pattern): ``{kind: TaskKind}``.
+
+A kind says how a campaign file's experiment of that kind is checked (``fields``, ``parse``)
+and expanded into tasks (``expand``); how a task of it runs on a worker (``run``, returning
+its robot-control-steps), what ``campaign run`` checks of its options first (``check``), what
+a finished one holds (``outputs``) and what the report reads of it (``read``, whose keys are
+the fields of :class:`somite.report.load.Loaded`), how far it has got (``progress``) and what
+it will cost (``estimate``, robot-control-steps). A kind without ``expand`` is made by
+another kind's experiment (a re-optimisation by a reassembly's). The campaign file, the
+task list, ``campaign.json``'s checks, the workers, the progress view, ``campaign list`` and
+the report all read this registry: a new kind is an entry here (and its module).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from ...errors import bad
+from . import discover, evolve, reassemble, reoptimize
+from .common import Needs
+
+
+@dataclass(frozen=True)
+class TaskKind:
+    """One kind of campaign task (see the module docstring)."""
+
+    run: Callable[[Path, Path, dict], int]
+    check: Callable[[str, dict, Needs], None]
+    read: Callable[[Path, dict], dict]
+    progress: Callable[[Path, dict, bool], dict]
+    estimate: Callable[[dict], int]
+    outputs: frozenset[str]
+    expand: Callable | None = None
+    parse: Callable | None = None
+    fields: frozenset[str] = frozenset()
+
+
+KINDS: dict[str, TaskKind] = {
+    "evolve": TaskKind(evolve.run, evolve.check, evolve.read, evolve.progress, evolve.estimate,
+                       evolve.OUTPUTS, evolve.expand, evolve.parse, evolve.FIELDS),
+    "reassemble": TaskKind(reassemble.run, reassemble.check, reassemble.read,
+                           reassemble.progress, reassemble.estimate, reassemble.OUTPUTS,
+                           reassemble.expand, reassemble.parse, reassemble.FIELDS),
+    "reoptimize": TaskKind(reoptimize.run, reoptimize.check, reoptimize.read,
+                           reoptimize.progress, reoptimize.estimate, reoptimize.OUTPUTS),
+    "discover": TaskKind(discover.run, discover.check, discover.read, discover.progress,
+                         discover.estimate, discover.OUTPUTS, discover.expand, discover.parse,
+                         discover.FIELDS),
+}
+"""Every task kind, in the order tables list them."""
+
+EXPERIMENT_KINDS = tuple(name for name, kind in KINDS.items() if kind.expand is not None)
+"""The kinds a campaign file's experiment may have."""
+
+
+def kind(name: str, field: str) -> TaskKind:
+    """The kind ``name``, or a one-line error naming ``field``."""
+    if name not in KINDS:
+        raise bad(field, name, f"use one of {list(KINDS)}")
+    return KINDS[name]
+
+
+def needs(tasks: list[dict]) -> Needs:
+    """What the checks of ``tasks``' options ask of the tasks they read from."""
+    return Needs({t["id"]: t for t in tasks}, {k: v.outputs for k, v in KINDS.items()})
+
+
+def estimate(task: dict) -> int:
+    """Robot-control-steps ``task`` will take."""
+    return KINDS[task["kind"]].estimate(task["options"])
+
+
+__all__ = ["EXPERIMENT_KINDS", "KINDS", "TaskKind", "estimate", "kind", "needs"]

@@ -105,3 +105,15 @@ def test_a_reoptimisation_builds_its_validation_terrains_once(tmp_path, monkeypa
     _, rows, donors = reoptimize(config, tmp_path / "run", start, donors=[start], n_terrains=10)
     assert validations == {10: 1}  # the log's, the donors' and the transfer curve's, shared
     assert len(rows) == 2 and len(donors) == 1
+
+
+def test_a_biased_run_parses_its_partition_once(tmp_path, monkeypatch, capsys):
+    from somite.sim.partition import Partition
+
+    partitions = count_method(monkeypatch, Partition, "parse")
+    out = tmp_path / "run"
+    common = ["--population", "4", "--duration", "1", "--quiet", "--out", str(out)]
+    assert main(["evolve", "--shape", "worm", "--omega", "10", "--modules", "worm-halves",
+                 "--generations", "1", *common]) == 0
+    capsys.readouterr()
+    assert partitions == {"worm-halves": 1}

@@ -26,6 +26,7 @@ import numpy as np
 from ..brain.genome import Genome
 from ..errors import bad
 from ..sim.body import Body
+from ..sim.partition import Partition
 from .config import GAConfig
 from .operators import initial_genome, mutate
 
@@ -89,6 +90,10 @@ class _Asked:
     started: float
 
 
+_FROM_CONFIG = object()
+"""GraphEA's ``partition`` when not given: parsed from its configuration."""
+
+
 class GraphEA:
     """The paper's EA over graph genomes of one body, driven by ask/tell.
 
@@ -108,6 +113,9 @@ class GraphEA:
         The EA's configuration; keyword ``options`` (any :class:`GAConfig` or
         :class:`~somite.evolution.operators.OperatorConfig` field: ``omega=10``,
         ``reevaluate_parents=False``, ``p_add_node=0.3``, ...) go on top of it.
+    partition : Partition or None, optional
+        The partition of ``body`` that the biased operators use, already parsed from
+        ``config``'s ``modules`` (default: parsed here).
 
     Attributes
     ----------
@@ -127,6 +135,7 @@ class GraphEA:
         *,
         start: Genome | None = None,
         config: GAConfig | None = None,
+        partition: Partition | None | object = _FROM_CONFIG,
         **options,
     ) -> None:
         if not isinstance(body, Body):
@@ -142,7 +151,10 @@ class GraphEA:
             raise bad("seed", seed, "must be an integer >= 0")
         self.body = body
         self.start = start
-        self.partition = self.config.partition(body.shape)
+        # A caller that parsed the configuration already (a run's RunSetup) hands its partition
+        # over rather than have it parsed twice.
+        self.partition = (self.config.partition(body.shape) if partition is _FROM_CONFIG
+                          else partition)
         self.variation = self.config.variation()
         variation, evaluation = np.random.SeedSequence(int(seed)).spawn(2)
         self.rng_variation = np.random.default_rng(variation)
@@ -273,14 +285,15 @@ class GraphEA:
         }
 
     @classmethod
-    def restore(cls, state: dict, config: GAConfig | None = None) -> GraphEA:
+    def restore(cls, state: dict, config: GAConfig | None = None,
+                partition: Partition | None | object = _FROM_CONFIG) -> GraphEA:
         """The EA of :meth:`state` (its body is the genomes'); ``log`` starts empty."""
         genomes = [Genome.from_dict(g) for g in state["population"]]
         fitness = np.array([math.nan if f is None else f for f in state["fitness"]], float)
         origins = [str(o) for o in state["origins"]]
         if not (len(genomes) == len(fitness) == len(origins)) or not genomes:
             raise ValueError("population, fitness and origins differ in length")
-        ea = cls(genomes[0].body, config=config)
+        ea = cls(genomes[0].body, config=config, partition=partition)
         ea.rng_variation.bit_generator.state = state["rng_variation"]
         ea.rng_evaluation.bit_generator.state = state["rng_evaluation"]
         ea.population = Population(genomes, fitness, origins)

@@ -109,7 +109,7 @@ def load_checkpoint(path: Path, config: RunConfig, logged: int) -> GraphEA:
         raise bad("checkpoint.generation", generation, f"log.csv holds {held}")
     check_checksum(data, path)
     try:
-        ea = GraphEA.restore(data, config.ga)
+        ea = GraphEA.restore(data, config.ga, config.setup.partition)
     except (ValueError, KeyError, TypeError, AttributeError, IndexError, OverflowError,
             RecursionError) as error:
         raise bad("checkpoint", str(path), f"damaged checkpoint ({error})") from None
@@ -391,7 +391,8 @@ def open_run(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool
         if body.shape != config.body().shape:
             raise bad("shape", config.shape,
                       f"the start genome's shape is {body.shape.grid_string()}")
-        ea = GraphEA(body, seed=config.seed, start=start, config=config.ga)
+        ea = GraphEA(body, seed=config.seed, start=start, config=config.ga,
+                     partition=config.setup.partition)
     config.task(ea.body)  # refuses a body the task cannot run before any file is touched
     if resume:
         run_dir.cut_back(ea.generation, history)

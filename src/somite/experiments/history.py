@@ -19,6 +19,7 @@ from pathlib import Path
 
 from .._io import read_text
 from ..errors import SomiteError, bad
+from ..limits import MAX_INPUT_BYTES
 from .logfile import LOG_COLUMNS
 
 _INTEGERS = ("generation", "evaluations", "best_nodes", "best_edges", "best_size", "nan_count")
@@ -196,8 +197,6 @@ def _complete_lines(path: Path, field: str, header: bool) -> list[tuple[int, str
 def _line_not_utf8(path: Path) -> int | None:
     """The number of the first line of the file ``path`` that is not UTF-8, if that is what
     :func:`~somite._io.read_text` refused it for (None otherwise: missing, too big, ...)."""
-    from ..limits import MAX_INPUT_BYTES
-
     try:
         if not path.is_file() or path.stat().st_size > MAX_INPUT_BYTES:
             return None

@@ -29,7 +29,7 @@ from somite.experiments.config import resolve
 from somite.experiments.logfile import LOG_COLUMNS, format_row
 from somite.report.caveats import MIN_GENERATIONS
 from somite.report.evolution import compare, one_sided
-from somite.report.rerun import cache_key, episode_settings, write_cache
+from somite.report.rerun import cache_key, write_cache
 from somite.sim.body import Body
 from somite.sim.config import SimConfig, whole_episode_warning
 from somite.tasks.validation import validation_terrains
@@ -209,7 +209,7 @@ def fake_campaign(root, seeds, **options):
                               "options": {"shape": shape, "seed": seed}})
                 run = load_run(folder)
                 genome = Genome.load(folder / "best.json")
-                entries[cache_key(genome, episode_settings(run), names)] = [0.5, 0.25]
+                entries[cache_key(genome, resolve(run.config).setup.sim, names)] = [0.5, 0.25]
     experiments = {"rq1": {"title": "rq1"}, "ablation": {"title": "ablation"}}
     (root / "campaign.json").write_text(json.dumps(
         {"format": "somite-campaign", "version": 1, "name": "fake", "source": "test",

@@ -117,3 +117,22 @@ def test_a_biased_run_parses_its_partition_once(tmp_path, monkeypatch, capsys):
                  "--generations", "1", *common]) == 0
     capsys.readouterr()
     assert partitions == {"worm-halves": 1}
+
+
+def test_a_resumed_run_parses_its_partition_once(tmp_path, monkeypatch, capsys):
+    from somite.sim.partition import Partition
+
+    out = tmp_path / "run"
+    common = ["--population", "4", "--duration", "1", "--quiet", "--out", str(out),
+              "--checkpoint-every", "1"]
+    assert main(["evolve", "--shape", "worm", "--omega", "10", "--modules", "worm-halves",
+                 "--generations", "1", *common]) == 0
+    config = (out / "config.json").read_bytes()
+    partitions = count_method(monkeypatch, Partition, "parse")
+    assert main(["evolve", "--resume", "--generations", "2", *common]) == 0
+    assert partitions == {"worm-halves": 2}  # the saved configuration, then with 2 generations
+    assert b'"generations": 2' in (out / "config.json").read_bytes() != config
+    partitions.clear()
+    assert main(["evolve", "--resume", *common]) == 0  # nothing left to do, nothing changed
+    capsys.readouterr()
+    assert partitions == {"worm-halves": 1}

@@ -8,7 +8,22 @@ import numpy as np
 import pytest
 
 from somite.errors import SomiteError
-from somite.sim.terrain import JavaRandom, hilly, hilly_reference, parse_terrain
+from somite.sim.java_random import JavaRandom
+from somite.sim.terrain import LENGTH, WALL_HEIGHT, WALL_WIDTH, hilly, parse_terrain
+
+
+def hilly_reference(height: float, width: float, seed: int) -> tuple[list, list]:
+    """The authors' hilly profile in plain Python with JavaRandom: the oracle of the compiled
+    one (their loop, written as they wrote it)."""
+    rng = JavaRandom(seed)
+    xs = [0.0, WALL_WIDTH]
+    ys = [WALL_HEIGHT, 0.0]
+    while xs[-1] < LENGTH - WALL_WIDTH:
+        xs.append(xs[-1] + max(1.0, (rng.next_gaussian() * 0.25 + 1) * width))
+        ys.append(ys[-1] + rng.next_gaussian() * height)
+    xs.append(xs[-1] + WALL_WIDTH)
+    ys.append(WALL_HEIGHT)
+    return xs, ys
 
 
 def test_java_random_matches_java():

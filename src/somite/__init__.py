@@ -12,7 +12,7 @@ The public API (see the README's "Python API")::
     for _ in range(100):
         genomes = ea.ask()
         ea.tell(genomes, task.evaluate(genomes, rng=ea.rng_evaluation))
-    task.validate(ea.best)                  # v_x [m/s] on the 10 validation terrains, (10,)
+    task.validate(ea.best)                  # v_x [m/s] on each validation terrain
     somite.simulate(ea.best, terrain="flat")  # an Outcome
 
 Names are loaded on first use, so ``import somite`` (and the command line) stays quick.

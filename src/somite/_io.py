@@ -2,12 +2,20 @@
 
 from __future__ import annotations
 
+import errno
+import json
 import math
 import os
 import re
+import stat
+import sys
 import tempfile
+import tomllib
 import uuid
 from pathlib import Path
+
+from .errors import bad
+from .limits import MAX_INPUT_BYTES
 
 TEMPORARY = re.compile(r"\.(?P<name>.+)\.\d+\.[0-9a-f]{8}\.tmp")
 """The name of :func:`write_atomic`'s temporary file: ``.NAME.PID.RAND.tmp``."""
@@ -66,7 +74,6 @@ def _write_all(handle: int, data: bytes) -> None:
     while view:
         written = os.write(handle, view)
         if written <= 0:  # no progress and no error: treat as a full disk, not a hang
-            import errno
 
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         view = view[written:]
@@ -102,15 +109,11 @@ def remove_temporary(folder: str | os.PathLike) -> None:
 
 
 def _cannot_write(path: Path, error: OSError, field: str = "out"):
-    from .errors import bad
-
     return bad(field, str(path), f"cannot write it ({reason(error)})")
 
 
 def make_folder(path: str | os.PathLike, field: str = "out") -> Path:
     """``mkdir -p`` an output folder, or a one-line error naming ``field``."""
-    from .errors import bad
-
     path = Path(path)
     try:
         path.mkdir(parents=True, exist_ok=True)
@@ -126,8 +129,6 @@ CHECK_PREFIX = ".somite-check."
 def _try_writing(folder: Path, field: str, shown: Path) -> None:
     """Create and delete a file in ``folder``: ``os.access`` does not know every refusal (root
     in /proc or /sys, some network file systems), a try does."""
-    from .errors import bad
-
     try:
         handle, name = tempfile.mkstemp(prefix=CHECK_PREFIX, dir=folder)
     except OSError as error:
@@ -146,8 +147,6 @@ def _nearest_existing(path: Path) -> Path:
 
 def _check_creatable(path: Path, field: str) -> None:
     """Refuse ``path`` (to be created) when the folder it would be created in cannot be."""
-    from .errors import bad
-
     above = _nearest_existing(path.parent if path.parent != path else path)
     if above.is_symlink() and not above.exists():
         raise bad(field, str(path), f"{above} is a dangling symbolic link")
@@ -181,8 +180,6 @@ def check_path_length(path: str | os.PathLike, field: str = "out",
     in it longer than the file system's NAME_MAX, or the whole longer than PATH_MAX; with
     ``temporary``, counting the temporary file a write puts beside the file
     (:func:`temporary_name`, the longest the writers use)."""
-    from .errors import bad
-
     path = Path(path)
     name_max, path_max = _limits(path)
     extra = 0
@@ -207,8 +204,6 @@ def check_path_length(path: str | os.PathLike, field: str = "out",
 
 
 def _cannot_check(path: Path, field: str, error: OSError):
-    from .errors import bad
-
     return bad(field, str(path), f"cannot use it ({reason(error)})")
 
 
@@ -223,8 +218,6 @@ def check_output_folder(path: str | os.PathLike, field: str = "out") -> Path:
 
 
 def _check_output_folder(path: Path, field: str) -> Path:
-    from .errors import bad
-
     if path.is_symlink() and not path.exists():
         raise bad(field, str(path), "is a dangling symbolic link")
     if path.exists():
@@ -250,8 +243,6 @@ def check_output_file(path: str | os.PathLike, field: str = "out") -> Path:
 
 
 def _check_output_file(path: Path, field: str) -> Path:
-    from .errors import bad
-
     if path.is_symlink() and not path.exists():
         raise bad(field, str(path), "is a dangling symbolic link")
     if path.is_dir():
@@ -274,11 +265,6 @@ def read_text(path: str | os.PathLike, field: str) -> str:
     """The UTF-8 text of the regular file ``path``, or a one-line error naming ``field``: no
     such file, a folder or a FIFO (whose read would wait forever), larger than
     :data:`~somite.limits.MAX_INPUT_BYTES`, not UTF-8."""
-    import stat
-
-    from .errors import bad
-    from .limits import MAX_INPUT_BYTES
-
     path = Path(path)
     try:
         info = os.stat(path)
@@ -307,17 +293,13 @@ def _why(error: ValueError) -> str:
     """A parser's ValueError in a few words: Python's int-string limit's message is long."""
     message = str(error)
     if "integer string conversion" in message:
-        import sys
-
         return f"an integer of more than {sys.get_int_max_str_digits()} digits"
     return message
 
 
 def parse_json(text: str, field: str, where: str):
     """JSON ``text`` or a one-line error: invalid, nested too deeply, an integer too long."""
-    import json
 
-    from .errors import bad
 
     try:
         return json.loads(text)
@@ -335,9 +317,7 @@ def read_json(path: str | os.PathLike, field: str):
 def read_toml(path: str | os.PathLike, field: str) -> dict:
     """:func:`read_text` then TOML, or a one-line error naming ``field`` and the file: invalid,
     nested too deeply, an integer too long."""
-    import tomllib
 
-    from .errors import bad
 
     text = read_text(path, field)
     try:

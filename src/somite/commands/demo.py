@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     with progress_bar(config.generations, args.quiet) as report:
         ea = evolve(config, run_dir, force=True, progress=report)
     summarise(ea, RunDirectory(run_dir), args.quiet)
-    sim = config.task().sim
+    sim = config.setup.sim
     fresh = fresh_noise(ea.best, parse_terrain(config.terrain), sim, RECHECKS, config.seed)
     if not args.quiet:
         print(recheck_line(ea.best_fitness, fresh, config.terrain))

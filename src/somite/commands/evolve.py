@@ -97,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
             ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report,
                         backend=backend)
     summarise(ea, run_dir, args.quiet)
-    warn_whole_episode(args.prog, config.task().sim)  # last: a caveat on the result
+    warn_whole_episode(args.prog, config.setup.sim)  # last: a caveat on the result
     return 0
 
 
@@ -120,12 +120,14 @@ def configuration(args: argparse.Namespace, defaults: dict | None = None, **fixe
                   "the run was killed before it saved config.json, so its options are "
                   "unknown: start it again with them (the same command without --resume)")
     if args.resume and not unborn:
-        saved = run_dir.saved_config().to_dict()
+        config = run_dir.saved_config()
+        saved = config.to_dict()
         changed = {k: v for k, v in cli.items() if k != "generations" and saved.get(k) != v}
         if args.config or changed:
             raise bad("resume", sorted(changed) or args.config,
                       "a resumed run keeps its configuration (only --generations may change)")
-        config = resolve({**saved, **cli})
+        if {**saved, **cli} != saved:  # --generations N: only then is it resolved again
+            config = resolve({**saved, **cli})
     else:
         options = load_toml(args.config) if args.config else {}
         config = resolve({**(defaults or {}), **options, **cli})

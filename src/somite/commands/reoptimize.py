@@ -71,5 +71,5 @@ def run(args: argparse.Namespace) -> int:
     if donors and abs(donors_mean) < RHO_FLOOR:
         warn(args.prog, f"the donors' mean v_x is {donors_mean:.3f} m/s, below "
              f"{RHO_FLOOR:g} m/s: rho divides by it and means little")
-    warn_whole_episode(args.prog, config.task().sim)  # last: a caveat on the result
+    warn_whole_episode(args.prog, config.setup.sim)  # last: a caveat on the result
     return 0

@@ -13,11 +13,15 @@ hills, is another experiment. The settings are read from the folder the genome i
 
 from __future__ import annotations
 
+import csv
+import io
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
 from .._io import read_json
 from ..errors import SomiteError
+from ..tasks.distributions import parse_distribution
 
 
 @dataclass(frozen=True)
@@ -57,7 +61,6 @@ class Origin:
         """The run's training terrain when it trained on one fixed terrain, else None."""
         if self.terrain is None:
             return None
-        from ..tasks.distributions import parse_distribution
 
         try:
             distribution = parse_distribution(self.terrain)
@@ -107,10 +110,6 @@ def _reassembly_origin(folder: Path) -> Origin:
 
 def _last_validation(folder: Path) -> float | None:
     """The last validation velocity in the run's log.csv (None without one)."""
-    import csv
-    import io
-    import math
-
     log = folder / "log.csv"
     if not log.is_file():
         return None

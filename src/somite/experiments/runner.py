@@ -33,6 +33,7 @@ import hashlib
 import io
 import json
 import math
+import os
 from collections.abc import Callable
 from pathlib import Path
 
@@ -40,9 +41,12 @@ from .._io import (
     CHECK_PREFIX,
     TEMPORARY,
     check_output_folder,
+    discard,
     make_folder,
     read_json,
     read_text,
+    reason,
+    temporary_name,
     write_atomic,
 )
 from ..brain.genome import Genome
@@ -209,9 +213,7 @@ class RunDirectory:
         is refused before anything is deleted; then the files are moved aside (renamed to
         temporary names) and deleted only once all are: one that cannot be moved (the folder's
         sticky bit, an append-only file, ...) puts the others back, and is a one-line error."""
-        import os
 
-        from .._io import discard, reason, temporary_name
 
         own = [self.file(n) for n in self.manifest()]
         own = [p for p in own if p.is_file() and not p.is_symlink()]
@@ -272,14 +274,18 @@ class RunDirectory:
     def write_config(self, config: RunConfig) -> None:
         write_atomic(self.file("config.json"), json.dumps(config.to_dict(), indent=2) + "\n")
 
-    def saved_config(self) -> RunConfig:
+    def saved_options(self) -> dict:
+        """``config.json`` as written (not resolved)."""
         path = self.file("config.json")
         if not path.is_file():
             raise bad("resume", str(self.path), "no config.json in this run directory")
         data = read_json(path, "config")
         if not isinstance(data, dict):
             raise bad("config", str(path), f"expected a JSON object, not {type(data).__name__}")
-        return resolve(data)
+        return data
+
+    def saved_config(self) -> RunConfig:
+        return resolve(self.saved_options())
 
     def cut_back(self, generation: int, history: History) -> None:
         """Keep the log rows and best genomes up to ``generation`` (``history``, checked by
@@ -396,7 +402,8 @@ def open_run(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool
     config.task(ea.body)  # refuses a body the task cannot run before any file is touched
     if resume:
         run_dir.cut_back(ea.generation, history)
-        if run_dir.saved_config() != config:  # --resume --generations N
+        # --resume --generations N; compared as written, so that a resume resolves nothing
+        if run_dir.saved_options() != json.loads(json.dumps(config.to_dict())):
             run_dir.write_config(config)
     else:
         run_dir.prepare_new(config, force, restart)

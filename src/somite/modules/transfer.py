@@ -73,7 +73,8 @@ def transferability(
     config=None,
     seed: int = 0,
 ) -> Transferability:
-    """Measure the three robots on the same terrains (default: the 10 validation terrains).
+    """Measure the three robots on the same terrains (default: the validation set,
+    :data:`~somite.tasks.validation.VALIDATION_COUNT` terrains).
 
     ``config`` is a :class:`~somite.sim.config.SimConfig` (default: the paper's 30 s episodes).
     """

@@ -24,6 +24,7 @@ from .discovery import discovery_rows, discovery_summary
 from .load import load, shape_name
 from .markdown import render_html, render_markdown
 from .rerun import rerun_finals
+from .sections import TITLES
 from .staging import staged_report
 from .timelapse import draw_strips
 
@@ -50,7 +51,7 @@ def _write_report(campaign, loaded, new: Path, validation: int, timelapse: bool,
     folder = new / "figures"
     folder.mkdir(exist_ok=True)
     stage(f"re-running the final bests on {validation} validation terrains")
-    reruns, simulated = rerun_finals(loaded.runs, loaded.bests, validation,
+    reruns, simulated = rerun_finals(loaded.runs, loaded.bests, loaded.sims, validation,
                                      new / "cache" / "validation.json")
     rows = _validation_rows(campaign, loaded, reruns)
     report = {
@@ -120,18 +121,14 @@ def _validation_rows(campaign, loaded, reruns: dict) -> list[dict]:
 
 def _evolution_figures(campaign, loaded, reruns: dict, folder: Path) -> dict:
     out = {}
-    for key, members, title in (
-        ("figure3", campaign.fed("figure3"), "Figure 3: best v_x and |G|"),
-        ("figure10", campaign.fed("figure10"), "Figure 10: best v_x and |G| by omega"),
-    ):
+    for key, members in (("figure3", campaign.fed("figure3")),
+                         ("figure10", campaign.fed("figure10"))):
         found = evolution.groups(campaign, loaded, members)
         out[key] = {"curves": evolution.curves(found),
-                    "files": _save(figures.curves_figure, found, folder, key, title)}
-    for key, members, title in (
-        ("figure5", campaign.fed("figure5"), "Figure 5: final best v_x, with and without "
-         "topology"),
-        ("figure11", campaign.fed("figure10"), "Figure 11: final best v_x by omega"),
-    ):
+                    "files": _save(figures.curves_figure, found, folder, key, TITLES[key])}
+    for key, members in (("figure5", campaign.fed("figure5")),
+                         ("figure11", campaign.fed("figure10"))):
+        title = TITLES[key]
         found = evolution.groups(campaign, loaded, members)
         compared = evolution.final_comparison(found, reruns)
         files = {}
@@ -157,18 +154,15 @@ def _reassembly_figures(campaign, loaded, folder: Path) -> dict:
     reassemblies = reassembly.reassembly_rows(campaign, loaded)
     rows = reassembly.reoptimization_rows(campaign, loaded)
     out = {"reassemblies": reassemblies, "reoptimizations": rows}
-    for key, label, title, reported in (
+    for key, label, reported in (
         ("figure7", reassembly.figure7_label(campaign),
-         "Figure 7: median rho during re-optimisation",
          {k: r.to_dict() for k, r in paper.RHO_HOMOGENEOUS.items()}),
-        ("figure8", reassembly.figure8_label(campaign),
-         "Figure 8: median rho by omega (homogeneous)", paper.RHO_BY_OMEGA.to_dict()),
-        ("rq3_reassembly", reassembly.discovered_label(campaign),
-         "Beyond the paper: rho along the discovered modules", None),
+        ("figure8", reassembly.figure8_label(campaign), paper.RHO_BY_OMEGA.to_dict()),
+        ("rq3_reassembly", reassembly.discovered_label(campaign), None),
     ):
         found = reassembly.rho_curves(rows, loaded, label)
         out[key] = {"curves": found, "end": reassembly.end_comparison(found),
-                    "files": _save(figures.rho_figure, found, folder, key, title),
+                    "files": _save(figures.rho_figure, found, folder, key, TITLES[key]),
                     "paper": reported}
     eta = reassembly.eta_by_omega(campaign, reassemblies)
     files = {}

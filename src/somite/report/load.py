@@ -11,6 +11,7 @@ from ..brain.genome import Genome
 from ..campaigns.kinds import KINDS
 from ..errors import SomiteError
 from ..sim.body import PRESET_SHAPES, Shape
+from ..sim.config import SimConfig
 from .campaign import CampaignFolder
 
 _SHAPE_NAMES = {grid: name for name, grid in PRESET_SHAPES.items()}
@@ -29,7 +30,8 @@ def shape_name(spec: str) -> str:
 class Loaded:
     """What the finished tasks hold, by task id.
 
-    ``runs`` and ``bests``: evolve and reoptimize tasks (``log.csv``, ``best.json``);
+    ``runs``, ``bests`` and ``sims``: evolve and reoptimize tasks (``log.csv``, ``best.json``,
+    the episode settings of ``config.json``);
     ``transfer``: reoptimize tasks' ``transfer.csv`` rows; ``reassembly``: reassemble tasks'
     ``report.json``; ``discovery``: discover tasks' ``partition.json``; ``broken``: finished
     tasks that could not be read, with why.
@@ -37,6 +39,7 @@ class Loaded:
 
     runs: dict[str, RunLog] = field(default_factory=dict)
     bests: dict[str, Genome] = field(default_factory=dict)
+    sims: dict[str, SimConfig] = field(default_factory=dict)
     transfer: dict[str, list[dict]] = field(default_factory=dict)
     reassembly: dict[str, dict] = field(default_factory=dict)
     discovery: dict[str, dict] = field(default_factory=dict)

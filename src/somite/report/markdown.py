@@ -7,6 +7,7 @@ import math
 
 from ..analysis.stats import MIN_GROUP_SIZE
 from . import paper
+from .sections import TITLES
 
 FIGURES = "figures"
 
@@ -121,7 +122,7 @@ def _missing_figures(report: dict) -> list[str]:
 
 
 def _table1(report: dict) -> list[str]:
-    lines = ["## Table 1: the best controller at the start and at the end", "",
+    lines = [f"## {TITLES['table1']}", "",
              "Median ± sd across runs of the best individual's |V|, |E|, |G| and v_x [m/s] at "
              "generation 0 and at the last generation; the paper's row (its RQ1, 10 runs, 3000 "
              "generations) below ours, for the experiment that declares `table1`.", ""]
@@ -156,8 +157,8 @@ def _table1(report: dict) -> list[str]:
 
 def _curves(report: dict) -> list[str]:
     lines = []
-    for key, title in (("figure3", "Figure 3: best v_x and |G| over the generations"),
-                       ("figure10", "Figure 10: best v_x and |G| by omega")):
+    for key in ("figure3", "figure10"):
+        title = TITLES[key]
         lines += [f"## {title}", "",
                   "Median ± sd across runs (line and band); dashed with dots: the median of the "
                   "logged validation v_x, where the runs measured it.", ""]
@@ -167,8 +168,8 @@ def _curves(report: dict) -> list[str]:
 
 def _boxes(report: dict) -> list[str]:
     lines = []
-    for key, title in (("figure5", "Figure 5: final best v_x, with and without topology "
-                        "optimisation"), ("figure11", "Figure 11: final best v_x by omega")):
+    for key in ("figure5", "figure11"):
+        title = TITLES[key]
         data = report[key]
         lines += [f"## {title}", "", _claim(data["paper"]), ""]
         rows, tests = [], []
@@ -216,10 +217,10 @@ def _rho(report: dict) -> list[str]:
              "rho = v_x of the re-optimised robot's best / mean v_x of its two donors, every v_x "
              "the mean over the validation terrains (transfer.csv); the line is the median over "
              "the reassembled robots, the band ± sd. rho = 1 recovers the donors' velocity.", ""]
-    lines += ["### Figure 7: homogeneous and heterogeneous reassembly", ""]
+    lines += [f"### {TITLES['figure7']}", ""]
     lines += _rho_table(report["figure7"], report["figure7"]["paper"])
     lines += _images(report["figure7"]["files"], "Figure 7")
-    lines += ["### Figure 8: homogeneous reassembly by omega", "",
+    lines += [f"### {TITLES['figure8']}", "",
               _claim(report["figure8"]["paper"]), ""]
     lines += _rho_table(report["figure8"])
     lines += _images(report["figure8"]["files"], "Figure 8")
@@ -228,7 +229,7 @@ def _rho(report: dict) -> list[str]:
 
 def _eta(report: dict) -> list[str]:
     data = report["figure9"]
-    lines = ["## Figure 9: edges cut by disassembly (eta) by omega", "",
+    lines = [f"## {TITLES['figure9']}", "",
              "eta_num: share of the donors' edges that cross modules and are dropped; "
              "eta_weight: the same share of sum(|w| + |b|); pooled over both donors of each "
              "homogeneous reassembly (the authors' count).", "",
@@ -281,7 +282,7 @@ def _tied(row: dict) -> str:
 
 
 def _discovered_reassembly(report: dict) -> list[str]:
-    lines = ["## Beyond the paper: reassembly along the discovered modules", ""]
+    lines = [f"## {TITLES['rq3_reassembly']}", ""]
     lines += _rho_table(report["rq3_reassembly"])
     return lines + _images(report["rq3_reassembly"]["files"], "rho along discovered modules")
 

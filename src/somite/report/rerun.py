@@ -21,16 +21,10 @@ from .._io import write_atomic
 from ..analysis.stats import RunLog
 from ..brain.genome import Genome
 from ..errors import SomiteError
-from ..experiments.config import resolve
 from ..formats import REPORT_CACHE
 from ..sim.config import SimConfig
 from ..tasks.validation import evaluate, validation_terrains
 from ..tasks.velocity import mean_velocity
-
-
-def episode_settings(run: RunLog) -> SimConfig:
-    """The episode settings the run trained with (its ``config.json``)."""
-    return resolve(run.config).setup.sim
 
 
 def cache_key(genome: Genome, sim: SimConfig, terrains: list[str]) -> str:
@@ -66,10 +60,12 @@ def _usable(entry, n: int) -> bool:
 
 
 def rerun_finals(
-    runs: Mapping[str, RunLog], bests: Mapping[str, Genome], n_terrains: int, cache: Path
+    runs: Mapping[str, RunLog], bests: Mapping[str, Genome], sims: Mapping[str, SimConfig],
+    n_terrains: int, cache: Path
 ) -> tuple[dict[str, dict], int]:
-    """Each run's final best on ``n_terrains`` validation terrains; returns the results by
-    task id and how many genomes had to be simulated (0 when the cache held them all).
+    """Each run's final best on ``n_terrains`` validation terrains, with the episode settings
+    it trained with (``sims``); returns the results by task id and how many genomes had to be
+    simulated (0 when the cache held them all).
 
     A result: ``velocities`` per terrain, their ``mean`` (NaN if any is NaN), the ``logged``
     final best v_x and the log's own last ``validation_velocity`` (NaN where not measured).
@@ -78,8 +74,8 @@ def rerun_finals(
     names = [t.name for t in terrains]
     entries = read_cache(cache)
     keys, todo = {}, {}
-    for task_id, run in runs.items():
-        sim = episode_settings(run)
+    for task_id in runs:
+        sim = sims[task_id]
         keys[task_id] = cache_key(bests[task_id], sim, names)
         if not _usable(entries.get(keys[task_id]), len(names)):
             todo.setdefault(sim, {})[keys[task_id]] = bests[task_id]
@@ -108,4 +104,4 @@ def rerun_finals(
     return results, simulated
 
 
-__all__ = ["cache_key", "episode_settings", "rerun_finals"]
+__all__ = ["cache_key", "rerun_finals"]

@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 
 from ..viz.video import record_episode, write_episode
-from .rerun import cache_key, episode_settings, read_cache, write_cache
+from .rerun import cache_key, read_cache, write_cache
 
 FRAMES = 6
 
@@ -43,8 +43,8 @@ def draw_strips(rows: list[dict], loaded, folder: Path, cache: Path) -> tuple[li
     drawn = read_cache(cache)
     strips, count = [], 0
     for (experiment, shape), row in best_per_experiment(rows).items():
-        run, genome = loaded.runs[row["task"]], loaded.bests[row["task"]]
-        sim = episode_settings(run)
+        genome = loaded.bests[row["task"]]
+        sim = loaded.sims[row["task"]]
         terrain = row["terrains"][0]
         name = f"timelapse-{experiment}-{shape}.png".replace("/", "-")
         key = cache_key(genome, sim, [terrain])

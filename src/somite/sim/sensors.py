@@ -21,9 +21,9 @@ import numpy as np
 from .._jit import njit
 from .._math import tanh
 from .config import SimConfig
+from .java_random import JavaRandom
 from .physics import segment_near, voxel_corners
 from .system import R_AREA, R_LIDAR0, R_TOUCH, R_VX, R_VY
-from .terrain import JavaRandom
 
 AREA_LOW, AREA_HIGH = 0.5, 1.5
 VOXEL_AREA = 9.0

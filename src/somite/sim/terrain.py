@@ -36,56 +36,13 @@ import numpy as np
 
 from .._jit import njit
 from ..errors import bad
+from .java_random import MASK, MULT, JavaRandom, next_double
 
 LENGTH = 2000.0
 WALL_WIDTH = 10.0
 WALL_HEIGHT = 100.0
 STEP_RISER = 0.05
 """Horizontal extent of a step's riser on steppy terrains, so that x stays strictly increasing."""
-
-
-class JavaRandom:
-    """``java.util.Random``: the 48-bit LCG with Java's nextDouble, nextInt and nextGaussian."""
-
-    _MULT = 0x5DEECE66D
-    _MASK = (1 << 48) - 1
-
-    def __init__(self, seed: int) -> None:
-        self._seed = (int(seed) ^ self._MULT) & self._MASK
-        self._next_gaussian: float | None = None
-
-    def _next(self, bits: int) -> int:
-        self._seed = (self._seed * self._MULT + 0xB) & self._MASK
-        value = self._seed >> (48 - bits)
-        return value - (1 << bits) if value >= 1 << (bits - 1) else value
-
-    def next_double(self) -> float:
-        hi = self._next(26) & ((1 << 26) - 1)
-        lo = self._next(27) & ((1 << 27) - 1)
-        return ((hi << 27) + lo) * 2.0**-53
-
-    def next_int(self, bound: int) -> int:
-        if bound & -bound == bound:
-            return (bound * (self._next(31) & 0x7FFFFFFF)) >> 31
-        while True:
-            bits = self._next(31) & 0x7FFFFFFF
-            value = bits % bound
-            if bits - value + (bound - 1) < 1 << 31:
-                return value
-
-    def next_gaussian(self) -> float:
-        if self._next_gaussian is not None:
-            value, self._next_gaussian = self._next_gaussian, None
-            return value
-        while True:
-            v1 = 2 * self.next_double() - 1
-            v2 = 2 * self.next_double() - 1
-            s = v1 * v1 + v2 * v2
-            if 0 < s < 1:
-                break
-        multiplier = math.sqrt(-2 * math.log(s) / s)
-        self._next_gaussian = v2 * multiplier
-        return v1 * multiplier
 
 
 @dataclass(frozen=True, eq=False)
@@ -119,26 +76,11 @@ def flat() -> Terrain:
     return _walled([WALL_WIDTH, LENGTH - WALL_WIDTH], [0.0, 0.0], "flat")
 
 
-_MULT = np.uint64(0x5DEECE66D)
-_ADD = np.uint64(0xB)
-_MASK = np.uint64((1 << 48) - 1)
-
-
-@njit
-def _next_double(state):
-    """java.util.Random.nextDouble on a 48-bit state: (value, new state)."""
-    state = (state * _MULT + _ADD) & _MASK
-    high = state >> np.uint64(22)  # next(26)
-    state = (state * _MULT + _ADD) & _MASK
-    low = state >> np.uint64(21)  # next(27)
-    return (float(high) * 134217728.0 + float(low)) * 2.0**-53, state
-
-
 @njit
 def _hilly_walk(seed, height, width, end_x, wall_width, wall_height):
     """The authors' hilly profile (see :func:`hilly`) with java.util.Random, compiled: a
     training run builds a fresh terrain for every evaluation."""
-    state = (np.uint64(seed) ^ _MULT) & _MASK
+    state = (np.uint64(seed) ^ MULT) & MASK
     cached = 0.0
     has_cached = False
     capacity = int(end_x) + 8  # segments are at least 1 m long
@@ -154,8 +96,8 @@ def _hilly_walk(seed, height, width, end_x, wall_width, wall_height):
                 has_cached = False
                 continue
             while True:
-                u, state = _next_double(state)
-                v, state = _next_double(state)
+                u, state = next_double(state)
+                v, state = next_double(state)
                 v1 = 2.0 * u - 1.0
                 v2 = 2.0 * v - 1.0
                 s = v1 * v1 + v2 * v2
@@ -183,19 +125,6 @@ def hilly(height: float, width: float, seed: int) -> Terrain:
 def hilly_name(height: float, width: float, seed: int) -> str:
     """The name of :func:`hilly`'s terrain, without building it."""
     return f"hilly-{_fmt(height)}-{_fmt(width)}-{seed}"
-
-
-def hilly_reference(height: float, width: float, seed: int) -> tuple[list, list]:
-    """:func:`hilly` in plain Python with :class:`JavaRandom` (the oracle of the tests)."""
-    rng = JavaRandom(seed)
-    xs = [0.0, WALL_WIDTH]
-    ys = [WALL_HEIGHT, 0.0]
-    while xs[-1] < LENGTH - WALL_WIDTH:
-        xs.append(xs[-1] + max(1.0, (rng.next_gaussian() * 0.25 + 1) * width))
-        ys.append(ys[-1] + rng.next_gaussian() * height)
-    xs.append(xs[-1] + WALL_WIDTH)
-    ys.append(WALL_HEIGHT)
-    return xs, ys
 
 
 def steppy(height: float, width: float, seed: int) -> Terrain:

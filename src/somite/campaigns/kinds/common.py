@@ -11,7 +11,6 @@ from pathlib import Path
 
 from ...errors import SomiteError, bad
 from ...experiments.config import RunConfig, resolve
-from ...sim.body import Shape
 from ..layout import at
 
 RUN_EXTRAS = ("representation", "donors", "validation")
@@ -20,19 +19,14 @@ RUN_EXTRAS = ("representation", "donors", "validation")
 
 def run_config(options: dict, where: str = "") -> RunConfig:
     """The :class:`RunConfig` of a run's task options (or of a campaign file's merged run
-    options): resolved, its ``modules`` partition checked for its shape; an error names
-    ``where`` before its field. The one place a campaign resolves run options: expanding,
+    options): resolved (its ``modules`` partition checked for its shape there); an error
+    names ``where`` before its field. The one place a campaign resolves run options: expanding,
     checking and running a task, and reading it for the report, all come here."""
     own = {k: v for k, v in options.items() if k not in RUN_EXTRAS}
     try:
         config = resolve(own)
     except SomiteError as error:
         raise SomiteError(f"{where}{error}") from None
-    try:
-        config.ga.partition(Shape.parse(config.shape))
-    except SomiteError as error:
-        raise bad(f"{where}modules", config.ga.partition_spec,
-                  f"not a partition of {config.shape} ({error})") from None
     return config
 
 

@@ -113,10 +113,11 @@ def check(where: str, task: dict, needs: Needs) -> None:
 
 
 def read(folder: Path, options: dict) -> dict:
-    """What the report reads of a finished run: its log and config, and its best genome."""
+    """What the report reads of a finished run: its log and config, its best genome, and the
+    episode settings it trained with (for the re-run on the validation terrains)."""
     found = load_run(folder)
-    run_config(found.config)  # the re-run on the validation terrains needs its settings
-    return {"runs": found, "bests": Genome.load(folder / "best.json")}
+    sim = run_config(found.config).setup.sim
+    return {"runs": found, "bests": Genome.load(folder / "best.json"), "sims": sim}
 
 
 def progress(folder: Path, options: dict, done: bool) -> dict:

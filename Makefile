@@ -18,7 +18,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	@echo "running the test suite (about 10 minutes on 2 cores; the first tests compile the kernels)"
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto
 
 bench: $(STAMP)
 	$(BIN)/somite bench

@@ -57,7 +57,7 @@ from somite.experiments.config import RunConfig, resolve
 from somite.sim.body import Body
 from somite.sim.config import SimConfig, preset
 from somite.sim.terrain import Terrain, parse_terrain
-from somite.tasks.validation import evaluate, validation_terrains
+from somite.tasks.validation import VALIDATION_COUNT, evaluate, validation_terrains
 from somite.tasks.velocity import mean_velocity
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -166,9 +166,9 @@ def load_run(path: str, every: int) -> Run:
 
 
 def parse_terrains(text: str) -> list[Terrain]:
-    """``--terrains``: comma-separated names, or ``validation`` (the 10 validation terrains)."""
+    """``--terrains``: comma-separated names, or ``validation`` (the validation set)."""
     if text.strip() == "validation":
-        return validation_terrains(10)
+        return validation_terrains(VALIDATION_COUNT)
     names = [n.strip() for n in text.split(",") if n.strip()]
     if not names:
         raise bad("terrains", text, "give at least one terrain name")
@@ -387,8 +387,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--from", dest="start", type=int, default=50, metavar="G",
                         help="the per-run median counts generations from G on (default 50)")
     parser.add_argument("--terrains", default=",".join(DEFAULT_TERRAINS),
-                        help="comma-separated terrain names, or 'validation' (the 10 validation "
-                        "terrains); default: flat and hilly-1-10-10000 ... 10004")
+                        help="comma-separated terrain names, or 'validation' (the "
+                        f"{VALIDATION_COUNT} validation terrains); default: flat and "
+                        "hilly-1-10-10000 ... 10004")
     parser.add_argument("--vsr", default=os.environ.get("VSR"),
                         help="the 2D-VSR-Sim driver's build (default: env VSR)")
     parser.add_argument("--export", default=str(DEFAULT_EXPORT),

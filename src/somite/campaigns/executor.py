@@ -14,6 +14,7 @@ their last few tasks.
 
 from __future__ import annotations
 
+import importlib.util
 import logging
 import os
 import re
@@ -108,21 +109,27 @@ def _client(scheduler: str | None, workers: int):
         except (OSError, TimeoutError, ValueError) as error:
             reason = (str(error).strip().splitlines() or [type(error).__name__])[0]
             raise bad("scheduler", scheduler, f"cannot connect ({reason})") from None
+    # Without bokeh the scheduler serves no dashboard, only its health pages: then it takes
+    # any free port, and two campaigns on one machine never meet on Dask's 8787 (the second
+    # would retry another port, leaking a socket).
+    address = ":8787" if _has_bokeh() else ":0"
     with warnings.catch_warnings():
         # "Port 8787 is already in use" (another cluster's dashboard): this one takes another
         # port, and the progress view shows which.
         warnings.filterwarnings("ignore", message="Port .* is already in use")
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               silence_logs=logging.ERROR)
+                               silence_logs=logging.ERROR, dashboard_address=address)
     return Client(cluster), cluster
+
+
+def _has_bokeh() -> bool:
+    return importlib.util.find_spec("bokeh") is not None
 
 
 def dashboard_link(client, local: bool) -> str:
     """The address of Dask's dashboard, or "" (a local one needs bokeh: without it the
     scheduler serves no status pages)."""
-    import importlib.util
-
-    if local and importlib.util.find_spec("bokeh") is None:
+    if local and not _has_bokeh():
         return ""
     try:
         info = client.scheduler_info()

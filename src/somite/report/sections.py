@@ -1,5 +1,5 @@
-"""The title of each section of a report, by its key in ``report.json``: the heading in
-``report.md`` and the title drawn on its figures. Which experiments feed a section is the
+"""The title of each section of a report, by its key in ``report.json``: the heading in the
+report's markdown and the title drawn on its figures. Which experiments feed a section is the
 campaign's declaration (:mod:`somite.campaigns.figures`); how it is titled lives here."""
 
 from __future__ import annotations

@@ -2,12 +2,24 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from somite.cli import main
 from somite.sim.body import Body
 from somite.sim.config import SimConfig
 from somite.sim.system import geometry
+
+
+@pytest.fixture(scope="session")
+def made_run(tmp_path_factory) -> Path:
+    """A tiny finished run (worm, 4 robots, 1 generation of 1 s): copy it before changing it."""
+    out = tmp_path_factory.mktemp("made") / "run"
+    assert main(["evolve", "--shape", "worm", "--population", "4", "--generations", "1",
+                 "--duration", "1", "--out", str(out), "--quiet"]) == 0
+    return out
 
 
 @pytest.fixture(scope="session")

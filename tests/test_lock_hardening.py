@@ -21,15 +21,6 @@ from somite.experiments.runner import MANIFEST, RUN_FILES
 RUN_MARKERS = (*RUN_FILES, MANIFEST)
 
 
-@pytest.fixture(scope="module")
-def made_run(tmp_path_factory) -> Path:
-    """A tiny finished run (copied by :func:`run` for each test that changes it)."""
-    out = tmp_path_factory.mktemp("made") / "run"
-    assert main(["evolve", "--shape", "worm", "--population", "4", "--generations", "1",
-                 "--duration", "1", "--out", str(out), "--quiet"]) == 0
-    return out
-
-
 @pytest.fixture
 def run(made_run, tmp_path, capsys) -> Path:
     copy = tmp_path / "run"

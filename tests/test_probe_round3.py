@@ -19,14 +19,6 @@ TOML = ('title = "x"\n[defaults]\npopulation = 4\nduration = 1.0\n'
         '[experiments.base]\nkind = "evolve"\nshapes = ["worm"]\nseeds = 1\n')
 
 
-@pytest.fixture(scope="module")
-def made_run(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("made") / "run"
-    assert main(["evolve", "--shape", "worm", "--population", "4", "--generations", "1",
-                 "--duration", "1", "--out", str(out), "--quiet"]) == 0
-    return out
-
-
 def _snapshot(folder: Path) -> dict[str, object]:
     found = {}
     for path in sorted(folder.rglob("*")):

@@ -35,6 +35,15 @@ def test_kernel_benchmark():
     assert "loaded_from_cache" in out["compile"]
 
 
+def test_stepper_benchmark():
+    out = run_script("stepper.py", "--robots", "2", "--duration", "0.1", "--repeats", "1")
+    assert out["robots"] == 2 and out["control_steps"] == 6
+    assert set(out["first_call_seconds"]) == {"compiled_loop", "stepper"}
+    for figures in out["by_threads"].values():
+        assert set(figures["run_seconds"]) == {"compiled_loop", "stepper",
+                                               "stepper_given_actuation"}
+
+
 def test_generation_benchmark():
     out = run_script("generation.py", "--generations", "2", "--population", "4")
     assert out["population"] == 4

@@ -41,6 +41,7 @@ _EXPORTS = {
     "simulate": "somite.tasks.task",
     "Outcome": "somite.tasks.locomotion",
     "simulate_batch": "somite.tasks.locomotion",
+    "Episode": "somite.tasks.stepper",
     "evaluate_genomes": "somite.tasks.validation:evaluate",
     "validation_terrains": "somite.tasks.validation",
     "fresh_noise": "somite.tasks.validation",

@@ -134,6 +134,24 @@ def scratch_in(robot, rest, cos, sin, spring, rope, weld, contacts, previous, co
     """A :class:`Scratch` over supplied arrays (sizes as its fields'), set to the start of an
     episode: no impulses, bodies unrotated, no contact. The rest lengths are set by the
     episode before its first step."""
+    scratch = Scratch(rest, cos, sin, spring, rope, weld, contacts, previous, counts, polygon,
+                      clipped, contact, segment)
+    reset_scratch(robot, scratch)
+    return scratch
+
+
+@njit
+def reset_scratch(robot, scratch) -> None:
+    """Set ``scratch`` to the start of an episode (see :func:`scratch_in`)."""
+    rest = scratch.rest
+    spring = scratch.spring
+    rope = scratch.rope
+    weld = scratch.weld
+    counts = scratch.counts
+    cos = scratch.cos
+    sin = scratch.sin
+    contact = scratch.contact
+    segment = scratch.segment
     for s in range(robot.n_springs):
         rest[s] = 0.0
         for j in range(spring.shape[1]):
@@ -151,5 +169,3 @@ def scratch_in(robot, rest, cos, sin, spring, rope, weld, contacts, previous, co
         contact[p] = False
     for f in range(robot.n_points + 1):
         segment[f] = 0
-    return Scratch(rest, cos, sin, spring, rope, weld, contacts, previous, counts, polygon,
-                   clipped, contact, segment)

@@ -5,6 +5,11 @@ cores with ``prange``. Per control step k = 1..n_steps (docs/original-system.md 
 physics advances ``substeps`` steps under the actuation of step k - 1, the sensors read, the
 controller computes the actuation for step k. Nothing is shared between robots but read-only
 inputs, so a robot's outcome is the same whatever batch it runs in.
+
+An episode is :func:`start`, :func:`control_step` for k = 1..n_steps and :func:`finish`, over one
+robot's :class:`RobotState`; the CPU loop, the CUDA kernel (:mod:`somite.tasks.cuda_batch`) and
+the Python stepper (:class:`somite.tasks.stepper.Episode`) all run these three functions. The
+state's arrays (:class:`Work`) are described once, in :data:`WORK_FIELDS`.
 """
 
 from __future__ import annotations
@@ -20,6 +25,10 @@ from ..brain.kernels import graph_step
 from ..brain.openloop import sine_actuation, table_actuation
 from ..sim.config import CONTROL_HZ
 from ..sim.physics import (
+    N_CONTACT_COLUMNS,
+    N_ROPE_COLUMNS,
+    N_SPRING_COLUMNS,
+    N_WELD_COLUMNS,
     advance,
     corner_state,
     ground_height,
@@ -27,7 +36,15 @@ from ..sim.physics import (
     segment_near,
     set_rest_lengths,
 )
-from ..sim.robot import ground_view, new_scratch, robot_view
+from ..sim.robot import (
+    Ground,
+    Robot,
+    Scratch,
+    contact_capacity,
+    ground_view,
+    reset_scratch,
+    robot_in,
+)
 from ..sim.sensors import angle_mode, lidar_rays, sense, update_histories, voxel_state
 
 ZERO, SINE, TABLE, GRAPH = 0, 1, 2, 3
@@ -41,6 +58,62 @@ D_MAX_TILT, D_FLIPPED, D_MAX_GAP, D_MAX_COM_HEIGHT, D_MAX_COM_SPEED, D_MIN_GAP =
 N_DIAGNOSTICS = 6
 SETTLE_STEPS = 120
 """2 s: the fall from the starting height is over."""
+
+# Slots of Work.tally: what an episode accumulates until finish() writes it to the trace.
+T_FASTEST, T_SMALLEST, T_NON_FINITE = range(3)
+N_TALLY = 3
+
+WORK_FIELDS = {
+    # robot_in's derived arrays
+    "inv_mass": (("P",), np.float64),
+    "inv_inertia": (("P",), np.float64),
+    # the fields of Scratch, in its order
+    "rest": (("S",), np.float64),
+    "cos": (("P",), np.float64),
+    "sin": (("P",), np.float64),
+    "spring": (("S", N_SPRING_COLUMNS), np.float64),
+    "rope": (("Y", N_ROPE_COLUMNS), np.float64),
+    "weld": (("W", N_WELD_COLUMNS), np.float64),
+    "contacts": (("C", N_CONTACT_COLUMNS), np.float64),
+    "previous": (("C", N_CONTACT_COLUMNS), np.float64),
+    "counts": ((2,), np.int64),
+    "polygon": ((2, 4, 4), np.float64),
+    "clipped": ((2, 4), np.float64),
+    "contact": (("P",), np.bool_),
+    "segment": (("P+1",), np.int64),
+    # the episode's own state
+    "body_pos": (("P", 3), np.float64),
+    "body_vel": (("P", 3), np.float64),
+    "pos": (("P", 2), np.float64),
+    "vel": (("P", 2), np.float64),
+    "voxels": (("V", 6), np.float64),
+    "touch_hist": (("V", "touch"), np.float64),
+    "vel_hist": (("V", "velocity", 2), np.float64),
+    "readings": (("R",), np.float64),
+    "actuation": (("V",), np.float64),
+    "h_prev": (("N",), np.float64),
+    "h_next": (("N",), np.float64),
+    "tally": ((N_TALLY,), np.float64),
+}
+"""The per-robot arrays of an episode: name -> (shape, dtype). A shape's names are one robot's
+counts (:func:`work_sizes`): P blocks, S springs, Y ropes, W welds, C contact rows
+(:func:`~somite.sim.robot.contact_capacity`), V voxels, R readings, N controller nodes, the
+sensors' ``touch`` and ``velocity`` windows. ``body_pos``, ``body_vel`` are the corner bodies'
+state (centre of mass and angle, their rates), ``pos``, ``vel`` the voxel corners that they carry;
+``tally`` holds T_*. :func:`robot_work` and :func:`work_row` follow this table (tested)."""
+
+Work = NamedTuple("Work", [(name, np.ndarray) for name in WORK_FIELDS])
+Work.__doc__ = "One robot's arrays of :data:`WORK_FIELDS` (or a batch's, robot axis first)."
+
+
+class RobotState(NamedTuple):
+    """Everything one robot's episode reads and writes besides the batch's inputs and trace."""
+
+    robot: Robot
+    ground: Ground
+    scratch: Scratch  # views of work's fields
+    work: Work
+    rays: np.ndarray  # (5, 2) lidar_rays(params)
 
 
 class Controllers(NamedTuple):
@@ -73,6 +146,40 @@ class Trace(NamedTuple):
     actuation: np.ndarray  # (B or 0, n_steps + 1, V)
     readings: np.ndarray  # (B or 0, n_steps + 1, R) normalised, noisy
     contact: np.ndarray  # (B or 0, n_steps + 1, P) bool
+
+
+def work_sizes(system, ctrl: Controllers, params, b: int | None = None) -> dict:
+    """The counts that :data:`WORK_FIELDS` names: robot ``b``'s, or the batch's padded ones."""
+    if b is None:
+        p = system.initial_pos.shape[1]
+        sizes = {"P": p, "S": system.spring_ends.shape[1], "Y": system.rope_ends.shape[1],
+                 "W": system.weld_ends.shape[1],
+                 "C": contact_capacity(p, system.pair_ends.shape[1]),
+                 "V": system.voxel_corners.shape[1], "R": system.reading_code.shape[1],
+                 # One node at least: a batch without graphs still has the field.
+                 "N": max(1, ctrl.node_kind.shape[1])}
+    else:
+        p = int(system.n_points[b])
+        sizes = {"P": p, "S": int(system.n_springs[b]), "Y": int(system.n_ropes[b]),
+                 "W": int(system.n_welds[b]), "C": contact_capacity(p, int(system.n_pairs[b])),
+                 "V": int(system.n_voxels[b]), "R": int(system.n_readings[b]),
+                 "N": int(ctrl.n_nodes[b])}
+    return {**sizes, "P+1": sizes["P"] + 1, "touch": int(params.touch_window),
+            "velocity": int(params.velocity_window)}
+
+
+def work_shape(name: str, sizes: dict) -> tuple:
+    """The shape of :data:`WORK_FIELDS` field ``name`` for ``sizes`` (:func:`work_sizes`)."""
+    return tuple(sizes[n] if isinstance(n, str) else n for n in WORK_FIELDS[name][0])
+
+
+def new_work(system, ctrl: Controllers, params, empty=np.empty) -> Work:
+    """The batch's :class:`Work`, robot axis first, padded: ``empty(shape, dtype)`` allocates
+    each field (numpy's for the host; the CUDA backend passes its own)."""
+    sizes = work_sizes(system, ctrl, params)
+    n = system.n_points.shape[0]
+    return Work(*(empty((n, *work_shape(name, sizes)), dtype)
+                  for name, (_, dtype) in WORK_FIELDS.items()))
 
 
 def new_trace(n_robots: int, n_steps: int, system, record: bool) -> Trace:
@@ -182,120 +289,214 @@ def _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation,
 
 
 @njit
-def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
-    """Simulate robot ``b`` of the batch for ``n_steps`` control steps into ``trace``
-    (``noise``: see :func:`~somite.sim.sensors.noise_table`)."""
-    robot = robot_view(system, b, params)
-    n_points = robot.n_points
-    n_voxels = robot.n_voxels
-    n_nodes = ctrl.n_nodes[b]
-    episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground_view(system, b),
-            new_scratch(robot), np.empty((n_points, 3)), np.empty((n_points, 3)),
-            np.empty((n_points, 2)), np.empty((n_points, 2)), np.empty((n_voxels, 6)),
-            np.empty((n_voxels, int(params.touch_window))),
-            np.empty((n_voxels, int(params.velocity_window), 2)),
-            np.empty(system.n_readings[b]), np.empty(n_voxels), np.empty(n_nodes),
-            np.empty(n_nodes), lidar_rays(params))
+def robot_work(system, ctrl, params, b) -> Work:
+    """Robot ``b``'s :class:`Work`, allocated to its own sizes (:data:`WORK_FIELDS`)."""
+    p = system.n_points[b]
+    s = system.n_springs[b]
+    v = system.n_voxels[b]
+    n = ctrl.n_nodes[b]
+    c = contact_capacity(p, system.n_pairs[b])
+    return Work(
+        np.empty(p), np.empty(p), np.empty(s), np.empty(p), np.empty(p),
+        np.empty((s, N_SPRING_COLUMNS)), np.empty((system.n_ropes[b], N_ROPE_COLUMNS)),
+        np.empty((system.n_welds[b], N_WELD_COLUMNS)), np.empty((c, N_CONTACT_COLUMNS)),
+        np.empty((c, N_CONTACT_COLUMNS)), np.empty(2, dtype=np.int64), np.empty((2, 4, 4)),
+        np.empty((2, 4)), np.empty(p, dtype=np.bool_), np.empty(p + 1, dtype=np.int64),
+        np.empty((p, 3)), np.empty((p, 3)), np.empty((p, 2)), np.empty((p, 2)),
+        np.empty((v, 6)), np.empty((v, int(params.touch_window))),
+        np.empty((v, int(params.velocity_window), 2)), np.empty(system.n_readings[b]),
+        np.empty(v), np.empty(n), np.empty(n), np.empty(N_TALLY),
+    )
 
 
-@njit(inline="always")
-def episode(b, system, ctrl, params, noise, seed, n_steps, trace, robot, ground, scratch,
-            body_pos, body_vel, pos, vel, voxels, touch_hist, vel_hist, readings, actuation,
-            h_prev, h_next, rays):
-    """:func:`run_robot` over supplied work arrays, which it initialises (a GPU thread cannot
-    allocate): ``body_pos``, ``body_vel`` (P, 3) the corner bodies' state (centre of mass and
-    angle, their rates), ``pos``, ``vel`` (P, 2) the voxel corners that they carry, ``voxels``
-    (V, 6), ``touch_hist`` (V, touch window),
-    ``vel_hist`` (V, velocity window, 2), ``readings`` (R,), ``actuation`` (V,), ``h_prev``,
-    ``h_next`` (N,), ``rays`` :func:`~somite.sim.sensors.lidar_rays`; ``scratch`` from
-    :func:`~somite.sim.robot.scratch_in`."""
+@njit
+def work_row(work, b, system, ctrl) -> Work:
+    """Robot ``b``'s :class:`Work` as views of a batch's (:func:`new_work`), trimmed to its own
+    sizes (:data:`WORK_FIELDS`): a GPU thread cannot allocate, the stepper keeps the state."""
+    p = system.n_points[b]
+    s = system.n_springs[b]
+    v = system.n_voxels[b]
+    n = ctrl.n_nodes[b]
+    c = contact_capacity(p, system.n_pairs[b])
+    return Work(
+        work.inv_mass[b, :p], work.inv_inertia[b, :p], work.rest[b, :s], work.cos[b, :p],
+        work.sin[b, :p], work.spring[b, :s], work.rope[b, :system.n_ropes[b]],
+        work.weld[b, :system.n_welds[b]], work.contacts[b, :c], work.previous[b, :c],
+        work.counts[b], work.polygon[b], work.clipped[b], work.contact[b, :p],
+        work.segment[b, :p + 1], work.body_pos[b, :p], work.body_vel[b, :p], work.pos[b, :p],
+        work.vel[b, :p], work.voxels[b, :v], work.touch_hist[b, :v], work.vel_hist[b, :v],
+        work.readings[b, :system.n_readings[b]], work.actuation[b, :v], work.h_prev[b, :n],
+        work.h_next[b, :n], work.tally[b],
+    )
+
+
+@njit
+def robot_state(system, b, params, work, rays) -> RobotState:
+    """Robot ``b``'s :class:`RobotState` over ``work`` (its :func:`robot_work` or
+    :func:`work_row`) and ``rays`` (:func:`~somite.sim.sensors.lidar_rays`)."""
+    robot = robot_in(system, b, params, work.inv_mass, work.inv_inertia)
+    scratch = Scratch(work.rest, work.cos, work.sin, work.spring, work.rope, work.weld,
+                      work.contacts, work.previous, work.counts, work.polygon, work.clipped,
+                      work.contact, work.segment)
+    return RobotState(robot, ground_view(system, b), scratch, work, rays)
+
+
+@njit
+def _x_extent(n_voxels, voxel_x):
+    x_lo = x_hi = voxel_x[0]
+    for v in range(n_voxels):
+        x_lo = min(x_lo, voxel_x[v])
+        x_hi = max(x_hi, voxel_x[v])
+    return x_lo, x_hi
+
+
+@njit
+def start(b, system, params, trace, state) -> None:
+    """Set robot ``b``'s ``state`` to the start of its episode and record step 0."""
+    robot = state.robot
+    scratch = state.scratch
+    work = state.work
+    reset_scratch(robot, scratch)
     n_points = robot.n_points
     n_voxels = robot.n_voxels
     n_readings = system.n_readings[b]
-    mass = robot.mass
-    voxel_x = system.voxel_x[b]
-    recording = trace.pos.shape[0] > 0
+    body_pos = work.body_pos
+    body_vel = work.body_vel
+    touch_hist = work.touch_hist
+    vel_hist = work.vel_hist
+    h_prev = work.h_prev
+    h_next = work.h_next
     for p in range(n_points):
         body_pos[p, 0] = system.initial_pos[b, p, 0]
         body_pos[p, 1] = system.initial_pos[b, p, 1]
         body_pos[p, 2] = 0.0
         body_vel[p, 0] = body_vel[p, 1] = body_vel[p, 2] = 0.0
-    corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, pos, vel)
+    corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, work.pos, work.vel)
     for v in range(n_voxels):
-        actuation[v] = 0.0
+        work.actuation[v] = 0.0
         for j in range(6):
-            voxels[v, j] = 0.0
+            work.voxels[v, j] = 0.0
         for j in range(touch_hist.shape[1]):
             touch_hist[v, j] = 0.0
         for j in range(vel_hist.shape[1]):
             vel_hist[v, j, 0] = vel_hist[v, j, 1] = 0.0
     for r in range(n_readings):
-        readings[r] = 0.0
+        work.readings[r] = 0.0
     for n in range(h_prev.shape[0]):
         h_prev[n] = h_next[n] = 0.0
-    substeps = int(params.substeps)
-    angle = angle_mode(params)
-
-    cx, cy = _centre_of_mass(n_points, mass, body_pos)
+    cx, cy = _centre_of_mass(n_points, robot.mass, body_pos)
+    trace.status[b] = STATUS_OK
     trace.com[b, 0, 0] = cx
     trace.com[b, 0, 1] = cy
-    if recording:
-        _record(b, 0, n_points, n_voxels, n_readings, pos, scratch.contact, actuation, readings,
-                trace)
-    fastest = 0.0
-    smallest = np.inf
-    x_lo = x_hi = voxel_x[0]
-    for v in range(n_voxels):
-        x_lo = min(x_lo, voxel_x[v])
-        x_hi = max(x_hi, voxel_x[v])
+    if trace.pos.shape[0] > 0:
+        _record(b, 0, n_points, n_voxels, n_readings, work.pos, scratch.contact, work.actuation,
+                work.readings, trace)
+    work.tally[T_FASTEST] = 0.0
+    work.tally[T_SMALLEST] = np.inf
+    work.tally[T_NON_FINITE] = 0.0
     diagnostics = trace.diagnostics[b]
+    for d in range(N_DIAGNOSTICS):
+        diagnostics[d] = 0.0
     diagnostics[D_MAX_GAP] = -np.inf
     diagnostics[D_MIN_GAP] = np.inf
-    non_finite = 0
-    for k in range(1, n_steps + 1):
-        set_rest_lengths(robot.n_springs, robot.kind, robot.owner, actuation, params.contract,
-                         params.expand, scratch.rest)
-        advance(robot, ground, scratch, body_pos, body_vel, params, substeps)
-        corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, pos, vel)
-        cx, cy = _centre_of_mass(n_points, mass, body_pos)
-        # The state's check, once per control step: any NaN or inf among the positions
-        # reaches the centre of mass, any among the velocities their sum (max() would keep
-        # the old value over a NaN).
-        squares = 0.0
-        for p in range(n_points):
-            square = vel[p, 0] * vel[p, 0] + vel[p, 1] * vel[p, 1]
-            squares += square
-            fastest = max(fastest, square)
-        if not (math.isfinite(cx) and math.isfinite(cy) and math.isfinite(squares)):
-            trace.status[b] = STATUS_NONFINITE
-            non_finite += 1
+
+
+@njit
+def control_step(k, b, system, ctrl, params, noise, seed, trace, state) -> bool:
+    """Control step ``k`` (1..n_steps) of robot ``b``: False when its state went non-finite,
+    which ends its episode (``trace.status``)."""
+    robot = state.robot
+    ground = state.ground
+    scratch = state.scratch
+    work = state.work
+    n_points = robot.n_points
+    n_voxels = robot.n_voxels
+    n_readings = system.n_readings[b]
+    mass = robot.mass
+    voxel_x = system.voxel_x[b]
+    body_pos = work.body_pos
+    body_vel = work.body_vel
+    pos = work.pos
+    vel = work.vel
+    voxels = work.voxels
+    readings = work.readings
+    actuation = work.actuation
+    tally = work.tally
+    set_rest_lengths(robot.n_springs, robot.kind, robot.owner, actuation, params.contract,
+                     params.expand, scratch.rest)
+    advance(robot, ground, scratch, body_pos, body_vel, params, int(params.substeps))
+    corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, pos, vel)
+    cx, cy = _centre_of_mass(n_points, mass, body_pos)
+    # The state's check, once per control step: any NaN or inf among the positions reaches the
+    # centre of mass, any among the velocities their sum (max() would keep the old value over
+    # a NaN).
+    squares = 0.0
+    fastest = tally[T_FASTEST]
+    for p in range(n_points):
+        square = vel[p, 0] * vel[p, 0] + vel[p, 1] * vel[p, 1]
+        squares += square
+        fastest = max(fastest, square)
+    tally[T_FASTEST] = fastest
+    if not (math.isfinite(cx) and math.isfinite(cy) and math.isfinite(squares)):
+        trace.status[b] = STATUS_NONFINITE
+        tally[T_NON_FINITE] += 1.0
+        return False
+    trace.com[b, k, 0] = cx
+    trace.com[b, k, 1] = cy
+    voxel_state(n_voxels, robot.corners, pos, vel, angle_mode(params), voxels)
+    smallest = tally[T_SMALLEST]
+    for v in range(n_voxels):
+        smallest = min(smallest, voxels[v, 4])
+    tally[T_SMALLEST] = smallest
+    near = scratch.segment[robot.n_points]
+    x_lo, x_hi = _x_extent(n_voxels, voxel_x)
+    tilt = _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels)
+    _observe(k, robot, ground, n_points, mass, body_pos, body_vel, scratch.cos, scratch.sin,
+             cx, cy, tilt, near, params, trace.diagnostics[b])
+    update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels, work.touch_hist,
+                     work.vel_hist, params)
+    sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
+          work.touch_hist, work.vel_hist, state.rays, ground.xs, ground.ys, ground.n, near,
+          params, noise, readings)
+    _control(b, k, ctrl, n_voxels, voxel_x, readings, work.h_prev, work.h_next, actuation,
+             params)
+    # The physics clamps actuation to [-1, 1] (a NaN acts as -1): counted, not hidden.
+    for v in range(n_voxels):
+        if not math.isfinite(actuation[v]):
+            tally[T_NON_FINITE] += 1.0
             break
-        trace.com[b, k, 0] = cx
-        trace.com[b, k, 1] = cy
-        voxel_state(n_voxels, robot.corners, pos, vel, angle, voxels)
-        for v in range(n_voxels):
-            smallest = min(smallest, voxels[v, 4])
-        near = scratch.segment[robot.n_points]
-        tilt = _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels)
-        _observe(k, robot, ground, n_points, mass, body_pos, body_vel, scratch.cos, scratch.sin,
-                 cx, cy, tilt, near, params, diagnostics)
-        update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels, touch_hist,
-                         vel_hist, params)
-        sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
-              touch_hist, vel_hist, rays, ground.xs, ground.ys, ground.n, near, params, noise,
-              readings)
-        _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation, params)
-        # The physics clamps actuation to [-1, 1] (a NaN acts as -1): counted, not hidden.
-        for v in range(n_voxels):
-            if not math.isfinite(actuation[v]):
-                non_finite += 1
-                break
-        if recording:
-            _record(b, k, n_points, n_voxels, n_readings, pos, scratch.contact, actuation,
-                    readings, trace)
-    trace.non_finite[b] = non_finite
-    trace.max_speed[b] = math.sqrt(fastest)
-    trace.min_area[b] = smallest
+    if trace.pos.shape[0] > 0:
+        _record(b, k, n_points, n_voxels, n_readings, pos, scratch.contact, actuation,
+                readings, trace)
+    return True
+
+
+@njit
+def finish(b, trace, state) -> None:
+    """Write what robot ``b``'s episode accumulated so far to ``trace``."""
+    tally = state.work.tally
+    trace.non_finite[b] = int(tally[T_NON_FINITE])
+    trace.max_speed[b] = math.sqrt(tally[T_FASTEST])
+    trace.min_area[b] = tally[T_SMALLEST]
+
+
+@njit
+def episode(b, system, ctrl, params, noise, seed, n_steps, trace, state) -> None:
+    """Robot ``b``'s whole episode over ``state`` (:func:`robot_state`), into ``trace``."""
+    start(b, system, params, trace, state)
+    for k in range(1, n_steps + 1):
+        if not control_step(k, b, system, ctrl, params, noise, seed, trace, state):
+            break
+    finish(b, trace, state)
+
+
+@njit
+def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
+    """Simulate robot ``b`` of the batch for ``n_steps`` control steps into ``trace``
+    (``noise``: see :func:`~somite.sim.sensors.noise_table`)."""
+    state = robot_state(system, b, params, robot_work(system, ctrl, params, b),
+                        lidar_rays(params))
+    episode(b, system, ctrl, params, noise, seed, n_steps, trace, state)
 
 
 @njit(parallel=True)

@@ -1,0 +1,232 @@
+"""An episode stepped from Python, one control step at a time (brax's ``reset``/``step``).
+
+:class:`Episode` runs the batch's robots through the same :func:`~somite.tasks.episode.start`,
+:func:`~somite.tasks.episode.control_step` and :func:`~somite.tasks.episode.finish` as the
+compiled loop, over state it keeps between calls (a :class:`~somite.tasks.episode.Work` of
+batch arrays), so an episode stepped to its end leaves the trace that
+:func:`~somite.tasks.episode.run_batch` leaves, bit for bit. Each call is one compiled batch
+function spreading the robots over the cores.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numba import prange
+
+from .._jit import njit
+from ..brain.compile import compile_genome
+from ..brain.genome import Genome
+from ..errors import bad
+from ..sim.body import Body
+from ..sim.config import SimConfig, pack_params
+from ..sim.sensors import lidar_rays, noise_table
+from ..sim.system import compile_system
+from ..sim.terrain import Terrain, parse_terrain
+from .episode import (
+    STATUS_OK,
+    Trace,
+    control_step,
+    finish,
+    new_trace,
+    new_work,
+    robot_state,
+    start,
+    work_row,
+)
+from .locomotion import compile_controllers
+
+
+@njit(parallel=True)
+def start_batch(system, ctrl, params, trace, work, rays):
+    """:func:`~somite.tasks.episode.start` every robot over its row of ``work``."""
+    for b in prange(system.n_points.shape[0]):
+        state = robot_state(system, b, params, work_row(work, b, system, ctrl), rays)
+        start(b, system, params, trace, state)
+        finish(b, trace, state)
+
+
+@njit
+def _put_in_force(b, k, given, actuation, trace):
+    # What was in force over step k is what the trace shows at step k - 1, which decided it.
+    recording = trace.pos.shape[0] > 0
+    for v in range(actuation.shape[0]):
+        actuation[v] = given[b, v]
+        if recording:
+            trace.actuation[b, k - 1, v] = given[b, v]
+
+
+@njit(parallel=True)
+def step_batch(k, system, ctrl, params, noise, seeds, trace, work, rays, given):
+    """Control step ``k`` of every robot still running; ``given`` (B, V) replaces the actuation
+    in force over the step (0 rows: the controllers' own)."""
+    for b in prange(system.n_points.shape[0]):
+        if trace.status[b] == STATUS_OK:
+            state = robot_state(system, b, params, work_row(work, b, system, ctrl), rays)
+            if given.shape[0] > 0:
+                # A function of its own: written inline in this prange loop, the writes to the
+                # trace were lost (numba 0.68.1).
+                _put_in_force(b, k, given, state.work.actuation, trace)
+            control_step(k, b, system, ctrl, params, noise, seeds[b], trace, state)
+            finish(b, trace, state)
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    view = a.view()
+    view.flags.writeable = False
+    return view
+
+
+class Episode:
+    """A batch of episodes stepped from Python: robot b = (``robots[b]``, ``terrains[b]``).
+
+    ``robots`` are :class:`~somite.brain.genome.Genome` s (each carries its body) or
+    controllers (``Zero()``, ``Sine(...)``, compiled graphs) with ``bodies``; ``terrains`` is one
+    terrain for all (a name or a :class:`~somite.sim.terrain.Terrain`) or one per robot;
+    ``seeds`` seeds the sensor noise as in :func:`~somite.tasks.locomotion.simulate_batch`.
+    With ``record`` the trace keeps every step's positions, actuation, readings and contacts.
+
+    ``step()`` advances every robot one control step with its own controller; ``step(a)``
+    with ``a`` (B, V) in [-1, 1] (V: the batch's most voxels; a robot reads its first
+    ``n_voxels`` columns) puts ``a`` in force over that step instead of the actuation that its
+    controller decided at the step before (a robot's controller still runs; its output is
+    replaced at the next ``step(a)``). So ``a`` may be computed from :attr:`readings`, as the
+    controllers compute theirs. A robot whose state went non-finite stops
+    (``trace.status``).
+    """
+
+    def __init__(
+        self,
+        robots: Sequence,
+        terrains: Sequence[Terrain | str] | Terrain | str,
+        config: SimConfig | None = None,
+        seeds: Sequence[int] | int = 0,
+        record: bool = False,
+        bodies: Sequence[Body] | None = None,
+    ):
+        config = config or SimConfig()
+        n = len(robots)
+        if n == 0:
+            raise bad("robots", [], "an episode needs one robot at least")
+        if bodies is None:
+            for robot in robots:
+                if not isinstance(robot, Genome):
+                    raise bad("bodies", None, "controllers need bodies=; a Genome carries its own")
+            bodies = [robot.body for robot in robots]
+        elif len(bodies) != n:
+            raise bad("bodies", f"{len(bodies)} bodies", f"need one per robot ({n})")
+        controllers = [compile_genome(r) if isinstance(r, Genome) else r for r in robots]
+        if isinstance(terrains, (str, Terrain)):
+            terrains = [terrains] * n
+        if len(terrains) != n:
+            raise bad("terrains", f"{len(terrains)} terrains", f"need one, or one per robot ({n})")
+        worlds = [t if isinstance(t, Terrain) else parse_terrain(t) for t in terrains]
+        if isinstance(seeds, (int, np.integer)):
+            seeds = [int(seeds)] * n
+        if len(seeds) != n:
+            raise bad("seeds", f"{len(seeds)} seeds", f"need one, or one per robot ({n})")
+        for seed in seeds:
+            if not 0 <= int(seed) < 2**64:
+                raise bad("seed", seed, "must be in [0, 2**64)")
+        self.config = config
+        self.system = compile_system(bodies, worlds, config.start_gap)
+        self.controllers = compile_controllers(controllers, [b.shape.n_voxels for b in bodies])
+        self._params = pack_params(config)
+        self._noise = noise_table(config)
+        self._seeds = np.asarray([int(s) for s in seeds], dtype=np.uint64)
+        self._rays = lidar_rays(self._params)
+        self._trace = new_trace(n, config.n_steps, self.system, record)
+        # Zeros: the padding beyond a robot's own counts shows in the views, as in the trace.
+        self._work = new_work(self.system, self.controllers, self._params, np.zeros)
+        self._no_actuation = np.zeros((0, self.n_voxels))
+        self._k = 0
+        start_batch(self.system, self.controllers, self._params, self._trace, self._work,
+                    self._rays)
+
+    @property
+    def n_robots(self) -> int:
+        return len(self._seeds)
+
+    @property
+    def n_voxels(self) -> int:
+        """V: the batch's most voxels (the width of an actuation)."""
+        return self.system.voxel_corners.shape[1]
+
+    @property
+    def n_steps(self) -> int:
+        """Control steps of the whole episode."""
+        return self.config.n_steps
+
+    @property
+    def k(self) -> int:
+        """Control steps taken (0 after start, ``n_steps`` at the end)."""
+        return self._k
+
+    @property
+    def done(self) -> bool:
+        return self._k >= self.n_steps
+
+    def step(self, actuation: np.ndarray | None = None) -> Episode:
+        """Advance every running robot one control step; returns the episode itself."""
+        if self.done:
+            raise bad("step", self._k + 1, f"the episode has {self.n_steps} control steps")
+        given = self._no_actuation
+        if actuation is not None:
+            given = np.asarray(actuation, dtype=np.float64)
+            expected = (self.n_robots, self.n_voxels)
+            if given.shape != expected:
+                raise bad("actuation", f"shape {given.shape}", f"must have shape {expected}")
+            if not (np.abs(given) <= 1.0).all():  # NaN fails too
+                raise bad("actuation", float(given.flat[np.argmax(~(np.abs(given) <= 1.0))]),
+                          "every value must be in [-1, 1]")
+            given = np.ascontiguousarray(given)
+        self._k += 1
+        step_batch(self._k, self.system, self.controllers, self._params, self._noise,
+                   self._seeds, self._trace, self._work, self._rays, given)
+        return self
+
+    def run(self) -> Trace:
+        """Step with the controllers to the end; the trace."""
+        while not self.done:
+            self.step()
+        return self.trace
+
+    @property
+    def trace(self) -> Trace:
+        """The trace so far (read-only views; steps not taken yet hold the initial values)."""
+        return Trace(*(_read_only(a) for a in self._trace))
+
+    @property
+    def readings(self) -> np.ndarray:
+        """(B, R) the sensors' normalised, noisy readings of the last step (padded: a robot's
+        first ``n_readings`` columns)."""
+        return _read_only(self._work.readings)
+
+    @property
+    def actuation(self) -> np.ndarray:
+        """(B, V) the actuation in force over the next step (the controllers' decision)."""
+        return _read_only(self._work.actuation)
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(B, P, 2) the voxel corners' positions [m] (a robot's first ``n_points`` rows)."""
+        return _read_only(self._work.pos)
+
+    @property
+    def com(self) -> np.ndarray:
+        """(B, 2) the centre of mass [m] after the last step (NaN for a stopped robot's)."""
+        return _read_only(self._trace.com[:, self._k])
+
+    @property
+    def status(self) -> np.ndarray:
+        """(B,) int32 STATUS_* (:mod:`somite.tasks.episode`)."""
+        return _read_only(self._trace.status)
+
+    @property
+    def diagnostics(self) -> np.ndarray:
+        """(B, N_DIAGNOSTICS) the episode's D_* so far (:mod:`somite.tasks.episode`)."""
+        return _read_only(self._trace.diagnostics)
+
+
+__all__ = ["Episode", "start_batch", "step_batch"]

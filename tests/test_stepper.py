@@ -1,0 +1,138 @@
+"""The Python stepper (somite.Episode) runs the compiled loop's start / control_step / finish:
+stepped to the end it leaves run_batch's trace bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import somite
+from somite.brain.compile import compile_genome
+from somite.brain.controllers import Zero
+from somite.sim.body import Body
+from somite.sim.config import pack_params, preset
+from somite.sim.robot import Scratch
+from somite.sim.terrain import parse_terrain
+from somite.tasks.episode import (
+    WORK_FIELDS,
+    Work,
+    new_work,
+    robot_work,
+    work_row,
+    work_shape,
+    work_sizes,
+)
+from somite.tasks.locomotion import simulate_batch
+from somite.tasks.stepper import Episode
+
+from .conftest import evolved, expect_error
+
+TERRAIN = "hilly-1-10-7"
+SEEDS = [21, 22]
+
+
+@pytest.fixture(scope="module")
+def batch():
+    """A worm and a biped with evolved graph controllers, on a hilly terrain, noise on, 1 s."""
+    genomes = [evolved("worm", 1), evolved("biped", 2)]
+    config = preset("paper", duration=1.0)
+    assert config.noise_sigma > 0
+    bodies = [g.body for g in genomes]
+    graphs = [compile_genome(g) for g in genomes]
+    terrains = [parse_terrain(TERRAIN)] * 2
+    _, reference = simulate_batch(bodies, terrains, graphs, config, SEEDS, record=True)
+    return genomes, bodies, config, reference
+
+
+def _assert_same(trace, reference, skip=()):
+    for field in reference._fields:
+        if field not in skip:
+            assert np.array_equal(getattr(trace, field), getattr(reference, field),
+                                  equal_nan=True), field
+
+
+def test_stepping_to_the_end_gives_run_batchs_trace(batch):
+    genomes, _, config, reference = batch
+    assert (reference.status == 0).all()
+    episode = somite.Episode(genomes, TERRAIN, config, SEEDS, record=True)
+    assert episode.k == 0 and np.array_equal(episode.com, reference.com[:, 0])
+    for k in range(1, config.n_steps + 1):
+        episode.step()
+        if k == 30:  # the views follow the steps
+            assert episode.k == 30
+            assert np.array_equal(episode.com, reference.com[:, 30])
+            assert np.array_equal(episode.readings, reference.readings[:, 30])
+            assert np.array_equal(episode.positions, reference.pos[:, 30])
+            assert np.array_equal(episode.actuation, reference.actuation[:, 30])
+    assert episode.done
+    _assert_same(episode.trace, reference)
+    assert np.array_equal(episode.diagnostics, reference.diagnostics)
+    assert abs(reference.com[0, -1, 0] - reference.com[1, -1, 0]) > 1e-6  # two robots
+    with pytest.raises(ValueError):  # views, not handles on the state
+        episode.readings[0, 0] = 1.0
+
+
+def test_supplying_the_controllers_own_actuation_changes_nothing(batch):
+    genomes, _, config, reference = batch
+    episode = Episode(genomes, TERRAIN, config, SEEDS, record=True)
+    for k in range(1, config.n_steps + 1):
+        # In force over step k: what the controller decided at step k - 1.
+        episode.step(reference.actuation[:, k - 1])
+    _assert_same(episode.trace, reference)
+
+
+def test_zero_actuation_is_the_zero_controller(batch):
+    genomes, bodies, config, _ = batch
+    _, still = simulate_batch(bodies, [parse_terrain(TERRAIN)] * 2, [Zero(), Zero()], config,
+                              SEEDS, record=True)
+    episode = Episode(genomes, TERRAIN, config, SEEDS, record=True)
+    zeros = np.zeros((2, episode.n_voxels))
+    while not episode.done:
+        episode.step(zeros)
+    trace = episode.trace
+    # The last row holds the graph's decision for a step that never comes.
+    _assert_same(trace, still, skip={"actuation"})
+    assert np.array_equal(trace.actuation[:, :-1], still.actuation[:, :-1])
+    assert not np.array_equal(trace.actuation[:, -1], still.actuation[:, -1])
+
+
+def test_bad_actuation_and_stepping_past_the_end_are_one_line_errors(batch):
+    genomes, bodies, _, _ = batch
+    config = preset("paper", duration=2 / 60)
+    controllers = [Zero(), Zero()]
+    episode = Episode(controllers, TERRAIN, config, SEEDS, bodies=bodies)
+    width = episode.n_voxels
+    message = expect_error("actuation", lambda: episode.step(np.zeros((2, width + 1))))
+    assert f"(2, {width})" in message
+    expect_error("actuation", lambda: episode.step(np.zeros(width)))
+    expect_error("actuation", lambda: episode.step(np.full((2, width), 1.5)))
+    expect_error("actuation", lambda: episode.step(np.full((2, width), np.nan)))
+    assert episode.k == 0  # a refused step is not taken
+    episode.step().step(np.ones((2, width)))
+    assert episode.done
+    message = expect_error("step", episode.step)
+    assert "2 control steps" in message
+    expect_error("bodies", lambda: Episode(controllers, TERRAIN, config))
+    expect_error("terrains", lambda: Episode(genomes, [TERRAIN] * 3, config))
+
+
+def test_the_work_arrays_follow_their_field_table():
+    bodies = [Body.build("worm"), Body.build("biped")]
+    genomes = [evolved("worm", 3, steps=5), evolved("biped", 4, steps=5)]
+    config = preset("original-code", duration=0.1)
+    episode = Episode(genomes, "flat", config)
+    system, ctrl, params = episode.system, episode.controllers, pack_params(config)
+    assert Work._fields == tuple(WORK_FIELDS)
+    assert set(Scratch._fields) <= set(WORK_FIELDS)
+    batch = new_work(system, ctrl, params)
+    padded = work_sizes(system, ctrl, params)
+    for b in range(len(bodies)):
+        sizes = work_sizes(system, ctrl, params, b)
+        row, own = work_row(batch, b, system, ctrl), robot_work(system, ctrl, params, b)
+        for name, (_, dtype) in WORK_FIELDS.items():
+            expected = work_shape(name, sizes)
+            assert getattr(row, name).shape == expected, name
+            assert getattr(own, name).shape == expected, name
+            assert getattr(batch, name).shape == (2, *work_shape(name, padded)), name
+            assert getattr(own, name).dtype == getattr(row, name).dtype == dtype, name
+    assert work_sizes(system, ctrl, params, 0)["V"] != work_sizes(system, ctrl, params, 1)["V"]

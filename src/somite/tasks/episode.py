@@ -401,7 +401,9 @@ def start(b, system, params, trace, state) -> None:
     diagnostics[D_MIN_GAP] = np.inf
 
 
-@njit
+# Inlined into its loops: a call per control step would pass the whole RobotState (some 50
+# arrays) and count references to each (measured: 6% of the kernel's time).
+@njit(inline="always")
 def control_step(k, b, system, ctrl, params, noise, seed, trace, state) -> bool:
     """Control step ``k`` (1..n_steps) of robot ``b``: False when its state went non-finite,
     which ends its episode (``trace.status``)."""
@@ -480,7 +482,7 @@ def finish(b, trace, state) -> None:
     trace.min_area[b] = tally[T_SMALLEST]
 
 
-@njit
+@njit(inline="always")
 def episode(b, system, ctrl, params, noise, seed, n_steps, trace, state) -> None:
     """Robot ``b``'s whole episode over ``state`` (:func:`robot_state`), into ``trace``."""
     start(b, system, params, trace, state)

@@ -57,6 +57,13 @@ def _put_in_force(b, k, given, actuation, trace):
             trace.actuation[b, k - 1, v] = given[b, v]
 
 
+@njit
+def _step_robot(k, b, system, ctrl, params, noise, seed, trace, state):
+    # control_step is inlined where it is called; inlined straight into the prange loop below,
+    # its writes to the trace were lost (numba 0.68.1), so it is inlined here instead.
+    control_step(k, b, system, ctrl, params, noise, seed, trace, state)
+
+
 @njit(parallel=True)
 def step_batch(k, system, ctrl, params, noise, seeds, trace, work, rays, given):
     """Control step ``k`` of every robot still running; ``given`` (B, V) replaces the actuation
@@ -68,7 +75,7 @@ def step_batch(k, system, ctrl, params, noise, seeds, trace, work, rays, given):
                 # A function of its own: written inline in this prange loop, the writes to the
                 # trace were lost (numba 0.68.1).
                 _put_in_force(b, k, given, state.work.actuation, trace)
-            control_step(k, b, system, ctrl, params, noise, seeds[b], trace, state)
+            _step_robot(k, b, system, ctrl, params, noise, seeds[b], trace, state)
             finish(b, trace, state)
 
 

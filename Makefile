@@ -17,7 +17,7 @@ demo: $(STAMP)
 	$(BIN)/somite demo --out demo
 
 test: $(STAMP)
-	@echo "running the test suite (about 10 minutes on 2 cores; the first tests compile the kernels)"
+	@echo "running the test suite on every core (about 10 minutes on 2; the first tests compile the kernels)"
 	$(BIN)/python -m pytest -q -n auto
 
 bench: $(STAMP)

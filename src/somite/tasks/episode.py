@@ -59,9 +59,10 @@ N_DIAGNOSTICS = 6
 SETTLE_STEPS = 120
 """2 s: the fall from the starting height is over."""
 
-# Slots of Work.tally: what an episode accumulates until finish() writes it to the trace.
-T_FASTEST, T_SMALLEST, T_NON_FINITE = range(3)
-N_TALLY = 3
+# Slots of Work.tally: what an episode accumulates until finish() writes it to the trace, and
+# the body's extent along x in voxel columns (fixed; start() finds it once).
+T_FASTEST, T_SMALLEST, T_NON_FINITE, T_X_LO, T_X_HI = range(5)
+N_TALLY = 5
 
 WORK_FIELDS = {
     # robot_in's derived arrays
@@ -394,6 +395,7 @@ def start(b, system, params, trace, state) -> None:
     work.tally[T_FASTEST] = 0.0
     work.tally[T_SMALLEST] = np.inf
     work.tally[T_NON_FINITE] = 0.0
+    work.tally[T_X_LO], work.tally[T_X_HI] = _x_extent(n_voxels, system.voxel_x[b])
     diagnostics = trace.diagnostics[b]
     for d in range(N_DIAGNOSTICS):
         diagnostics[d] = 0.0
@@ -451,8 +453,7 @@ def control_step(k, b, system, ctrl, params, noise, seed, trace, state) -> bool:
         smallest = min(smallest, voxels[v, 4])
     tally[T_SMALLEST] = smallest
     near = scratch.segment[robot.n_points]
-    x_lo, x_hi = _x_extent(n_voxels, voxel_x)
-    tilt = _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels)
+    tilt = _column_tilt(n_voxels, voxel_x, tally[T_X_LO], tally[T_X_HI], voxels)
     _observe(k, robot, ground, n_points, mass, body_pos, body_vel, scratch.cos, scratch.sin,
              cx, cy, tilt, near, params, trace.diagnostics[b])
     update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels, work.touch_hist,

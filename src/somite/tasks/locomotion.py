@@ -205,15 +205,30 @@ def simulate_batch(
     corner positions, actuation, readings and contacts (``cpu`` backend only).
     """
     config = config or SimConfig()
-    n = len(bodies)
-    if not (len(terrains) == len(controllers) == n):
+    if not (len(terrains) == len(controllers) == len(bodies)):
         raise ValueError("bodies, terrains and controllers must have the same length")
+    system, ctrl, seeds = compile_batch(bodies, terrains, controllers, config, seeds)
+    trace = run(system, ctrl, config, seeds, record, backend)
+    return outcomes(trace, config), trace
+
+
+def compile_batch(
+    bodies: Sequence[Body],
+    terrains: Sequence[Terrain],
+    controllers: Sequence[Controller],
+    config: SimConfig,
+    seeds: Sequence[int] | int,
+) -> tuple[System, Controllers, list[int]]:
+    """A batch of robot b = (bodies[b], terrains[b], controllers[b]) compiled for the kernel,
+    and its noise seeds, one per robot (one int: the same for all), checked."""
+    n = len(bodies)
     if isinstance(seeds, (int, np.integer)):
         seeds = [int(seeds)] * n
+    if len(seeds) != n:
+        raise bad("seeds", f"{len(seeds)} seeds", f"need one, or one per robot ({n})")
     for seed in seeds:
         if not 0 <= int(seed) < 2**64:
             raise bad("seed", seed, "must be in [0, 2**64)")
     system = compile_system(bodies, terrains, config.start_gap)
     ctrl = compile_controllers(controllers, [b.shape.n_voxels for b in bodies])
-    trace = run(system, ctrl, config, seeds, record, backend)
-    return outcomes(trace, config), trace
+    return system, ctrl, [int(s) for s in seeds]

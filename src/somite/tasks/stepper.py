@@ -22,7 +22,6 @@ from ..errors import bad
 from ..sim.body import Body
 from ..sim.config import SimConfig, pack_params
 from ..sim.sensors import lidar_rays, noise_table
-from ..sim.system import compile_system
 from ..sim.terrain import Terrain, parse_terrain
 from .episode import (
     STATUS_OK,
@@ -35,7 +34,7 @@ from .episode import (
     start,
     work_row,
 )
-from .locomotion import compile_controllers
+from .locomotion import compile_batch
 
 
 @njit(parallel=True)
@@ -129,19 +128,12 @@ class Episode:
         if len(terrains) != n:
             raise bad("terrains", f"{len(terrains)} terrains", f"need one, or one per robot ({n})")
         worlds = [t if isinstance(t, Terrain) else parse_terrain(t) for t in terrains]
-        if isinstance(seeds, (int, np.integer)):
-            seeds = [int(seeds)] * n
-        if len(seeds) != n:
-            raise bad("seeds", f"{len(seeds)} seeds", f"need one, or one per robot ({n})")
-        for seed in seeds:
-            if not 0 <= int(seed) < 2**64:
-                raise bad("seed", seed, "must be in [0, 2**64)")
         self.config = config
-        self.system = compile_system(bodies, worlds, config.start_gap)
-        self.controllers = compile_controllers(controllers, [b.shape.n_voxels for b in bodies])
+        self.system, self.controllers, seeds = compile_batch(bodies, worlds, controllers,
+                                                             config, seeds)
         self._params = pack_params(config)
         self._noise = noise_table(config)
-        self._seeds = np.asarray([int(s) for s in seeds], dtype=np.uint64)
+        self._seeds = np.asarray(seeds, dtype=np.uint64)
         self._rays = lidar_rays(self._params)
         self._trace = new_trace(n, config.n_steps, self.system, record)
         # Zeros: the padding beyond a robot's own counts shows in the views, as in the trace.

@@ -35,7 +35,8 @@ from somite.sim.sensors import noise_table
 from somite.sim.system import compile_system
 from somite.sim.terrain import hilly
 from somite.tasks.backends import BACKENDS
-from somite.tasks.episode import new_trace, run_batch
+from somite.tasks.episode import new_trace
+from somite.tasks.lanes import run_batch
 from somite.tasks.locomotion import compile_controllers, outcomes, run
 from somite.tasks.stepper import Episode
 

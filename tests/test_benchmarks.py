@@ -198,3 +198,11 @@ def test_calibrate_tipping_band_scores_tipping_too_rarely():
     assert miss(report, tipping_band=True) == pytest.approx(0.3 / 1.5 - 0.05)
     report["biped-4x3"]["somite"]["tipped_rate"] = 0.5
     assert miss(report) == miss(report, tipping_band=True) == pytest.approx(0.5 - 0.45)
+
+
+def test_throughput_benchmark():
+    out = run_script("throughput.py", "--duration", "0.1", "--repeats", "1", "--sizes", "1", "3")
+    assert out["shape"] == "worm" and "loaded_from_cache" in out["compile"]
+    for rows in out["by_threads"].values():
+        assert [r["robots"] for r in rows] == [1, 3]
+        assert all(r["robot_control_steps_per_second"] > 0 for r in rows)

@@ -1,5 +1,6 @@
 """The Python stepper (somite.Episode) runs the compiled loop's start / control_step / finish:
-stepped to the end it leaves run_batch's trace bit for bit."""
+stepped to the end it leaves run_batch's trace bit for bit; and the CPU kernel's groups of
+robots give each robot the numbers it gets alone."""
 
 from __future__ import annotations
 
@@ -7,23 +8,28 @@ import numpy as np
 import pytest
 
 import somite
+from somite.bench import random_graph
 from somite.brain.compile import compile_genome
 from somite.brain.controllers import Zero
 from somite.sim.body import Body
 from somite.sim.config import pack_params, preset
 from somite.sim.robot import Scratch
-from somite.sim.terrain import parse_terrain
+from somite.sim.sensors import lidar_rays, noise_table
+from somite.sim.system import compile_system
+from somite.sim.terrain import hilly, parse_terrain
 from somite.tasks.episode import (
     WORK_FIELDS,
     Work,
+    new_trace,
     new_work,
     robot_work,
     work_row,
     work_shape,
     work_sizes,
 )
-from somite.tasks.locomotion import simulate_batch
-from somite.tasks.stepper import Episode
+from somite.tasks.lanes import GROUP_SIZE, groups, run_groups
+from somite.tasks.locomotion import compile_controllers, simulate_batch
+from somite.tasks.stepper import Episode, start_batch, step_batch
 
 from .conftest import evolved, expect_error
 
@@ -136,3 +142,35 @@ def test_the_work_arrays_follow_their_field_table():
             assert getattr(batch, name).shape == (2, *work_shape(name, padded)), name
             assert getattr(own, name).dtype == getattr(row, name).dtype == dtype, name
     assert work_sizes(system, ctrl, params, 0)["V"] != work_sizes(system, ctrl, params, 1)["V"]
+
+
+def test_robots_advanced_in_groups_give_each_robots_own_numbers():
+    """The CPU kernel advances up to GROUP_SIZE robots of the same joint counts together
+    (somite.tasks.lanes); every group size leaves the trace of the per-robot path (the
+    stepper's), bit for bit, also when a robot of a group stops (a NaN start: non-finite at
+    the first step) and groups that differ in shape."""
+    rng = np.random.default_rng(5)
+    bodies = [Body.build("worm")] * 5 + [Body.build("biped")] * 2
+    graphs = [random_graph(body, 120, rng) for body in bodies]
+    terrains = [hilly(1.0, 10.0, 30 + b) for b in range(len(bodies))]
+    config = preset("paper", duration=0.5)
+    system = compile_system(bodies, terrains, config.start_gap)
+    system.initial_pos[2, 0, 0] = np.nan
+    ctrl = compile_controllers(graphs, [b.shape.n_voxels for b in bodies])
+    params, noise = pack_params(config), noise_table(config)
+    seeds = np.arange(40, 40 + len(bodies), dtype=np.uint64)
+    rays = lidar_rays(params)
+    alone = new_trace(len(bodies), config.n_steps, system, True)
+    work = new_work(system, ctrl, params, np.zeros)
+    start_batch(system, ctrl, params, alone, work, rays)
+    for k in range(1, config.n_steps + 1):
+        step_batch(k, system, ctrl, params, noise, seeds, alone, work, rays,
+                   np.zeros((0, system.voxel_corners.shape[1])))
+    assert alone.status.tolist() == [0, 0, 1, 0, 0, 0, 0]
+    for size in (1, 3, GROUP_SIZE):
+        first, count = groups(system, size, threads=1)
+        assert count.max() == min(size, 5) and count.sum() == len(bodies)
+        grouped = new_trace(len(bodies), config.n_steps, system, True)
+        run_groups(system, ctrl, params, noise, seeds, config.n_steps, grouped,
+                   new_work(system, ctrl, params), first, count)
+        _assert_same(grouped, alone)

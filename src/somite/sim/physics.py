@@ -1,8 +1,11 @@
 """Physics of one robot: the original's rigid blocks, soft springs, rope limits and welds,
 solved with sequential impulses, as dyn4j 3.3 (the engine under 2D-VSR-Sim) solves them.
 
-Every function here works on one robot's arrays and is called from the episode loop of
-:mod:`somite.tasks.episode`; the batch kernel runs that loop for each robot on its own thread.
+Every function here works on one robot's arrays and is called from the episode of
+:mod:`somite.tasks.episode`; the CPU kernel (:mod:`somite.tasks.lanes`) also runs the joint
+passes on a group of robots presented as one robot, their joints interleaved. A joint's
+arithmetic lives in one function (``spring_setup``, ``spring_solve``, ``rope_fix``, ...), which
+the passes over a robot's joints call in order.
 A robot's state is one rigid square block per voxel corner (four per voxel,
 docs/original-system.md section 1.2): ``pos`` (P, 3) holds each block's centre and angle, ``vel``
 (P, 3) its velocity and angular velocity.
@@ -147,121 +150,147 @@ def relative_velocity(vel, a, b, rax, ray, rbx, rby):
 
 
 @njit(inline="always")
-def start_springs(robot, scratch, pos, vel, params):
-    """Set up the soft springs for this step (a damped spring as a soft constraint: its
+def spring_setup(s, a, b, anchor, rest, work, pos, vel, cos, sin, inv_mass, inv_inertia, dt,
+                 omega, damping_ratio):
+    """Set up spring s (ends a, b) for this step (a damped spring as a soft constraint: its
     stiffness and damping from the frequency and damping ratio and the effective mass along
-    it, as dyn4j's DistanceJoint) and apply last step's impulses."""
+    it, as dyn4j's DistanceJoint) and apply last step's impulse."""
+    rax, ray = turned(a, anchor[s, 0], anchor[s, 1], cos, sin)
+    rbx, rby = turned(b, anchor[s, 2], anchor[s, 3], cos, sin)
+    nx = pos[a, 0] + rax - pos[b, 0] - rbx
+    ny = pos[a, 1] + ray - pos[b, 1] - rby
+    length = math.sqrt(nx * nx + ny * ny)
+    if length < LINEAR_SLOP:
+        nx = ny = 0.0
+    else:
+        nx /= length
+        ny /= length
+    cra = rax * ny - ray * nx
+    crb = rbx * ny - rby * nx
+    w = inv_mass[a] + inv_inertia[a] * cra * cra + inv_mass[b] + inv_inertia[b] * crb * crb
+    mass = 1.0 / w if w > 0.0 else 0.0
+    stiffness = mass * omega * omega
+    damping = 2.0 * mass * damping_ratio * omega
+    gamma = dt * (damping + dt * stiffness)
+    gamma = 1.0 / gamma if gamma > 0.0 else 0.0
+    w += gamma
+    work[s, J_RAX] = rax
+    work[s, J_RAY] = ray
+    work[s, J_RBX] = rbx
+    work[s, J_RBY] = rby
+    work[s, J_NX] = nx
+    work[s, J_NY] = ny
+    work[s, J_MASS] = 1.0 / w if w > 0.0 else 0.0
+    work[s, J_GAMMA] = gamma
+    work[s, J_BIAS] = (length - rest[s]) * dt * stiffness * gamma
+    j = work[s, J_IMPULSE]
+    push(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass, inv_inertia)
+
+
+@njit(inline="always")
+def spring_solve(s, a, b, work, vel, inv_mass, inv_inertia):
+    """One velocity pass over spring s (ends a, b)."""
+    rax = work[s, J_RAX]
+    ray = work[s, J_RAY]
+    rbx = work[s, J_RBX]
+    rby = work[s, J_RBY]
+    vx, vy = relative_velocity(vel, a, b, rax, ray, rbx, rby)
+    nx = work[s, J_NX]
+    ny = work[s, J_NY]
+    j = -work[s, J_MASS] * (nx * vx + ny * vy + work[s, J_BIAS]
+                            + work[s, J_GAMMA] * work[s, J_IMPULSE])
+    work[s, J_IMPULSE] += j
+    push(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass, inv_inertia)
+
+
+@njit(inline="always")
+def start_springs(robot, scratch, pos, vel, params):
+    """Set up the soft springs for this step (:func:`spring_setup`)."""
     ends = robot.ends
-    anchor = robot.anchor
-    rest = scratch.rest
-    work = scratch.spring
-    cos = scratch.cos
-    sin = scratch.sin
-    inv_mass = robot.inv_mass
-    inv_inertia = robot.inv_inertia
-    dt = params.dt
     omega = 2.0 * math.pi * params.spring_hz
     for s in range(robot.n_springs):
-        a = ends[s, 0]
-        b = ends[s, 1]
-        rax, ray = turned(a, anchor[s, 0], anchor[s, 1], cos, sin)
-        rbx, rby = turned(b, anchor[s, 2], anchor[s, 3], cos, sin)
-        nx = pos[a, 0] + rax - pos[b, 0] - rbx
-        ny = pos[a, 1] + ray - pos[b, 1] - rby
-        length = math.sqrt(nx * nx + ny * ny)
-        if length < LINEAR_SLOP:
-            nx = ny = 0.0
-        else:
-            nx /= length
-            ny /= length
-        cra = rax * ny - ray * nx
-        crb = rbx * ny - rby * nx
-        w = inv_mass[a] + inv_inertia[a] * cra * cra + inv_mass[b] + inv_inertia[b] * crb * crb
-        mass = 1.0 / w if w > 0.0 else 0.0
-        stiffness = mass * omega * omega
-        damping = 2.0 * mass * params.damping_ratio * omega
-        gamma = dt * (damping + dt * stiffness)
-        gamma = 1.0 / gamma if gamma > 0.0 else 0.0
-        w += gamma
-        work[s, J_RAX] = rax
-        work[s, J_RAY] = ray
-        work[s, J_RBX] = rbx
-        work[s, J_RBY] = rby
-        work[s, J_NX] = nx
-        work[s, J_NY] = ny
-        work[s, J_MASS] = 1.0 / w if w > 0.0 else 0.0
-        work[s, J_GAMMA] = gamma
-        work[s, J_BIAS] = (length - rest[s]) * dt * stiffness * gamma
-        j = work[s, J_IMPULSE]
-        push(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass, inv_inertia)
+        spring_setup(s, ends[s, 0], ends[s, 1], robot.anchor, scratch.rest, scratch.spring, pos,
+                     vel, scratch.cos, scratch.sin, robot.inv_mass, robot.inv_inertia,
+                     params.dt, omega, params.damping_ratio)
 
 
 @njit(inline="always")
 def solve_springs(robot, scratch, vel):
     ends = robot.ends
-    work = scratch.spring
     for s in range(robot.n_springs):
-        a = ends[s, 0]
-        b = ends[s, 1]
-        rax = work[s, J_RAX]
-        ray = work[s, J_RAY]
-        rbx = work[s, J_RBX]
-        rby = work[s, J_RBY]
-        vx, vy = relative_velocity(vel, a, b, rax, ray, rbx, rby)
-        nx = work[s, J_NX]
-        ny = work[s, J_NY]
-        j = -work[s, J_MASS] * (nx * vx + ny * vy + work[s, J_BIAS]
-                                + work[s, J_GAMMA] * work[s, J_IMPULSE])
-        work[s, J_IMPULSE] += j
-        push(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, robot.inv_mass, robot.inv_inertia)
+        spring_solve(s, ends[s, 0], ends[s, 1], scratch.spring, vel, robot.inv_mass,
+                     robot.inv_inertia)
+
+
+@njit(inline="always")
+def rope_setup(r, a, b, work, pos, vel, inv_mass, inv_inertia):
+    """Rope limit r between the centres of a voxel's adjacent blocks a, b: active while the
+    blocks are closer than one block side (they would overlap), as dyn4j's RopeJoint with a
+    lower limit only; while active, the limit holds the distance in both directions."""
+    nx = pos[a, 0] - pos[b, 0]
+    ny = pos[a, 1] - pos[b, 1]
+    length = math.sqrt(nx * nx + ny * ny)
+    if length < LINEAR_SLOP:
+        nx = ny = 0.0
+    else:
+        nx /= length
+        ny /= length
+    if length < BLOCK_SIDE:
+        w = inv_mass[a] + inv_mass[b]
+        work[r, R_NX] = nx
+        work[r, R_NY] = ny
+        work[r, R_MASS] = 1.0 / w
+        work[r, R_ACTIVE] = 1.0
+        j = work[r, R_IMPULSE]
+        push(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, inv_mass, inv_inertia)
+    else:
+        work[r, R_ACTIVE] = 0.0
+        work[r, R_IMPULSE] = 0.0
+
+
+@njit(inline="always")
+def rope_solve(r, a, b, work, vel, inv_mass, inv_inertia):
+    if work[r, R_ACTIVE] == 0.0:
+        return
+    nx = work[r, R_NX]
+    ny = work[r, R_NY]
+    j = -work[r, R_MASS] * (nx * (vel[a, 0] - vel[b, 0]) + ny * (vel[a, 1] - vel[b, 1]))
+    work[r, R_IMPULSE] += j
+    push(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, inv_mass, inv_inertia)
+
+
+@njit(inline="always")
+def rope_fix(a, b, pos, inv_mass, inv_inertia) -> bool:
+    """One position pass over the rope limit between a and b; whether it holds."""
+    nx = pos[a, 0] - pos[b, 0]
+    ny = pos[a, 1] - pos[b, 1]
+    length = math.sqrt(nx * nx + ny * ny)
+    if length >= BLOCK_SIDE:
+        return True
+    if length > 0.0:
+        nx /= length
+        ny /= length
+    error = max(length - BLOCK_SIDE, -MAX_CORRECTION)
+    j = -error / (inv_mass[a] + inv_mass[b])
+    push(pos, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, inv_mass, inv_inertia)
+    return not -error >= LINEAR_SLOP
 
 
 @njit(inline="always")
 def start_ropes(robot, scratch, pos, vel):
-    """Rope limits between the centres of a voxel's adjacent blocks: active while the blocks
-    are closer than one block side (they would overlap), as dyn4j's RopeJoint with a lower
-    limit only; while active, the limit holds the distance in both directions."""
+    """Set up the rope limits for this step (:func:`rope_setup`)."""
     ends = robot.rope_ends
-    work = scratch.rope
     for r in range(robot.n_ropes):
-        a = ends[r, 0]
-        b = ends[r, 1]
-        nx = pos[a, 0] - pos[b, 0]
-        ny = pos[a, 1] - pos[b, 1]
-        length = math.sqrt(nx * nx + ny * ny)
-        if length < LINEAR_SLOP:
-            nx = ny = 0.0
-        else:
-            nx /= length
-            ny /= length
-        if length < BLOCK_SIDE:
-            w = robot.inv_mass[a] + robot.inv_mass[b]
-            work[r, R_NX] = nx
-            work[r, R_NY] = ny
-            work[r, R_MASS] = 1.0 / w
-            work[r, R_ACTIVE] = 1.0
-            j = work[r, R_IMPULSE]
-            push(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, robot.inv_mass,
-                 robot.inv_inertia)
-        else:
-            work[r, R_ACTIVE] = 0.0
-            work[r, R_IMPULSE] = 0.0
+        rope_setup(r, ends[r, 0], ends[r, 1], scratch.rope, pos, vel, robot.inv_mass,
+                   robot.inv_inertia)
 
 
 @njit(inline="always")
 def solve_ropes(robot, scratch, vel):
     ends = robot.rope_ends
-    work = scratch.rope
     for r in range(robot.n_ropes):
-        if work[r, R_ACTIVE] == 0.0:
-            continue
-        a = ends[r, 0]
-        b = ends[r, 1]
-        nx = work[r, R_NX]
-        ny = work[r, R_NY]
-        j = -work[r, R_MASS] * (nx * (vel[a, 0] - vel[b, 0]) + ny * (vel[a, 1] - vel[b, 1]))
-        work[r, R_IMPULSE] += j
-        push(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, robot.inv_mass, robot.inv_inertia)
+        rope_solve(r, ends[r, 0], ends[r, 1], scratch.rope, vel, robot.inv_mass,
+                   robot.inv_inertia)
 
 
 @njit(inline="always")
@@ -270,20 +299,7 @@ def fix_ropes(robot, pos) -> bool:
     ends = robot.rope_ends
     held = True
     for r in range(robot.n_ropes):
-        a = ends[r, 0]
-        b = ends[r, 1]
-        nx = pos[a, 0] - pos[b, 0]
-        ny = pos[a, 1] - pos[b, 1]
-        length = math.sqrt(nx * nx + ny * ny)
-        if length >= BLOCK_SIDE:
-            continue
-        if length > 0.0:
-            nx /= length
-            ny /= length
-        error = max(length - BLOCK_SIDE, -MAX_CORRECTION)
-        j = -error / (robot.inv_mass[a] + robot.inv_mass[b])
-        push(pos, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, robot.inv_mass, robot.inv_inertia)
-        if -error >= LINEAR_SLOP:
+        if not rope_fix(ends[r, 0], ends[r, 1], pos, robot.inv_mass, robot.inv_inertia):
             held = False
     return held
 
@@ -321,68 +337,75 @@ def weld_push(state, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia):
 
 
 @njit(inline="always")
+def weld_setup(q, a, b, anchor, work, vel, cos, sin, inv_mass, inv_inertia):
+    rbx, rby = turned(b, anchor[q, 0], anchor[q, 1], cos, sin)
+    work[q, W_RBX] = rbx
+    work[q, W_RBY] = rby
+    weld_push(vel, a, b, rbx, rby, work[q, W_JX], work[q, W_JY], work[q, W_JZ], inv_mass,
+              inv_inertia)
+
+
+@njit(inline="always")
+def weld_solve(q, a, b, work, vel, inv_mass, inv_inertia):
+    rbx = work[q, W_RBX]
+    rby = work[q, W_RBY]
+    k00, k01, k02, k11, k12, k22 = weld_matrix(inv_mass[a], inv_inertia[a], inv_mass[b],
+                                               inv_inertia[b], rbx, rby)
+    vx, vy = relative_velocity(vel, a, b, 0.0, 0.0, rbx, rby)
+    jx, jy, jz = solve33(k00, k01, k02, k11, k12, k22, -vx, -vy, -(vel[a, 2] - vel[b, 2]))
+    work[q, W_JX] += jx
+    work[q, W_JY] += jy
+    work[q, W_JZ] += jz
+    weld_push(vel, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia)
+
+
+@njit(inline="always")
+def weld_fix(q, a, b, anchor, pos, cos, sin, inv_mass, inv_inertia) -> bool:
+    """One position pass over weld q between a and b (the whole error at once, as dyn4j's
+    rigid WeldJoint); whether it holds. Updates the rotations it changes."""
+    rbx, rby = turned(b, anchor[q, 0], anchor[q, 1], cos, sin)
+    cx = pos[a, 0] - pos[b, 0] - rbx
+    cy = pos[a, 1] - pos[b, 1] - rby
+    angle = pos[a, 2] - pos[b, 2]
+    if angle < -math.pi:
+        angle += 2.0 * math.pi
+    if angle > math.pi:
+        angle -= 2.0 * math.pi
+    k00, k01, k02, k11, k12, k22 = weld_matrix(inv_mass[a], inv_inertia[a], inv_mass[b],
+                                               inv_inertia[b], rbx, rby)
+    jx, jy, jz = solve33(k00, k01, k02, k11, k12, k22, -cx, -cy, -angle)
+    weld_push(pos, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia)
+    cos[a] = math.cos(pos[a, 2])
+    sin[a] = math.sin(pos[a, 2])
+    cos[b] = math.cos(pos[b, 2])
+    sin[b] = math.sin(pos[b, 2])
+    return not (math.sqrt(cx * cx + cy * cy) > LINEAR_SLOP or abs(angle) > ANGULAR_SLOP)
+
+
+@njit(inline="always")
 def start_welds(robot, scratch, vel):
     ends = robot.weld_ends
-    work = scratch.weld
     for q in range(robot.n_welds):
-        a = ends[q, 0]
-        b = ends[q, 1]
-        rbx, rby = turned(b, robot.weld_anchor[q, 0], robot.weld_anchor[q, 1], scratch.cos,
-                          scratch.sin)
-        work[q, W_RBX] = rbx
-        work[q, W_RBY] = rby
-        weld_push(vel, a, b, rbx, rby, work[q, W_JX], work[q, W_JY], work[q, W_JZ],
-                  robot.inv_mass, robot.inv_inertia)
+        weld_setup(q, ends[q, 0], ends[q, 1], robot.weld_anchor, scratch.weld, vel, scratch.cos,
+                   scratch.sin, robot.inv_mass, robot.inv_inertia)
 
 
 @njit(inline="always")
 def solve_welds(robot, scratch, vel):
     ends = robot.weld_ends
-    work = scratch.weld
-    inv_mass = robot.inv_mass
-    inv_inertia = robot.inv_inertia
     for q in range(robot.n_welds):
-        a = ends[q, 0]
-        b = ends[q, 1]
-        rbx = work[q, W_RBX]
-        rby = work[q, W_RBY]
-        k00, k01, k02, k11, k12, k22 = weld_matrix(inv_mass[a], inv_inertia[a], inv_mass[b],
-                                                   inv_inertia[b], rbx, rby)
-        vx, vy = relative_velocity(vel, a, b, 0.0, 0.0, rbx, rby)
-        jx, jy, jz = solve33(k00, k01, k02, k11, k12, k22, -vx, -vy, -(vel[a, 2] - vel[b, 2]))
-        work[q, W_JX] += jx
-        work[q, W_JY] += jy
-        work[q, W_JZ] += jz
-        weld_push(vel, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia)
+        weld_solve(q, ends[q, 0], ends[q, 1], scratch.weld, vel, robot.inv_mass,
+                   robot.inv_inertia)
 
 
 @njit(inline="always")
 def fix_welds(robot, pos, cos, sin) -> bool:
-    """One position pass over the welds (the whole error at once, as dyn4j's rigid
-    WeldJoint); whether they all hold. Updates the rotations it changes."""
+    """One position pass over the welds (:func:`weld_fix`); whether they all hold."""
     ends = robot.weld_ends
-    inv_mass = robot.inv_mass
-    inv_inertia = robot.inv_inertia
     held = True
     for q in range(robot.n_welds):
-        a = ends[q, 0]
-        b = ends[q, 1]
-        rbx, rby = turned(b, robot.weld_anchor[q, 0], robot.weld_anchor[q, 1], cos, sin)
-        cx = pos[a, 0] - pos[b, 0] - rbx
-        cy = pos[a, 1] - pos[b, 1] - rby
-        angle = pos[a, 2] - pos[b, 2]
-        if angle < -math.pi:
-            angle += 2.0 * math.pi
-        if angle > math.pi:
-            angle -= 2.0 * math.pi
-        k00, k01, k02, k11, k12, k22 = weld_matrix(inv_mass[a], inv_inertia[a], inv_mass[b],
-                                                   inv_inertia[b], rbx, rby)
-        jx, jy, jz = solve33(k00, k01, k02, k11, k12, k22, -cx, -cy, -angle)
-        weld_push(pos, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia)
-        for p in (a, b):
-            cos[p] = math.cos(pos[p, 2])
-            sin[p] = math.sin(pos[p, 2])
-        if math.sqrt(cx * cx + cy * cy) > LINEAR_SLOP or abs(angle) > ANGULAR_SLOP:
+        if not weld_fix(q, ends[q, 0], ends[q, 1], robot.weld_anchor, pos, cos, sin,
+                        robot.inv_mass, robot.inv_inertia):
             held = False
     return held
 

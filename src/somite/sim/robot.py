@@ -90,21 +90,28 @@ def robot_in(system, b, params, inv_mass, inv_inertia) -> Robot:
     """:func:`robot_view` with its two derived arrays (P,) supplied and filled: a GPU thread
     cannot allocate them."""
     n_points = system.n_points[b]
+    for p in range(n_points):
+        inv_mass[p] = 1.0 / system.mass[b, p]
+        inv_inertia[p] = 1.0 / system.inertia[b, p]
+    return robot_over(system, b, inv_mass, inv_inertia)
+
+
+@njit(inline="always")
+def robot_over(system, b, inv_mass, inv_inertia) -> Robot:
+    """Robot ``b`` over derived arrays that :func:`robot_in` filled before."""
+    n_points = system.n_points[b]
     n_springs = system.n_springs[b]
     n_ropes = system.n_ropes[b]
     n_welds = system.n_welds[b]
     n_pairs = system.n_pairs[b]
-    mass = system.mass[b, :n_points]
-    for p in range(n_points):
-        inv_mass[p] = 1.0 / mass[p]
-        inv_inertia[p] = 1.0 / system.inertia[b, p]
     return Robot(
         n_points, n_springs, n_ropes, n_welds, n_pairs, system.n_voxels[b],
         system.spring_ends[b, :n_springs], system.spring_anchor[b, :n_springs],
         system.spring_kind[b, :n_springs], system.spring_owner[b, :n_springs],
         system.rope_ends[b, :n_ropes], system.weld_ends[b, :n_welds],
-        system.weld_anchor[b, :n_welds], system.pair_ends[b, :n_pairs], mass, inv_mass,
-        inv_inertia, system.corner_offset[b, :n_points], system.voxel_corners[b],
+        system.weld_anchor[b, :n_welds], system.pair_ends[b, :n_pairs],
+        system.mass[b, :n_points], inv_mass, inv_inertia, system.corner_offset[b, :n_points],
+        system.voxel_corners[b],
     )
 
 

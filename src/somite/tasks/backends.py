@@ -1,6 +1,6 @@
 """Where a batch of episodes runs: the registry of backends, :data:`BACKENDS`.
 
-Each backend is a batch runner with the signature of :func:`somite.tasks.episode.run_batch`
+Each backend is a batch runner with the signature of :func:`somite.tasks.lanes.run_batch`
 (it fills a host :class:`~somite.tasks.episode.Trace`), a check of whether it can run here and
 its line of ``--backend`` help. ``cpu`` runs the robots over the cores (Numba); ``cuda`` runs
 one GPU thread per robot (:mod:`somite.tasks.cuda_batch`). Both run the same episode code.
@@ -31,16 +31,9 @@ class Backend:
 
 def _run_on_cpu(system, controllers, params, noise, seeds, n_steps, trace) -> None:
     # Imported when run: the command line reads this registry for its help, without Numba.
-    import numba
+    from .lanes import run_batch
 
-    from .episode import run_batch
-
-    # Robots take unequal times (graph sizes, contacts): hand them out one at a time.
-    previous = numba.set_parallel_chunksize(1)
-    try:
-        run_batch(system, controllers, params, noise, seeds, n_steps, trace)
-    finally:
-        numba.set_parallel_chunksize(previous)
+    run_batch(system, controllers, params, noise, seeds, n_steps, trace)
 
 
 def _run_on_gpu(system, controllers, params, noise, seeds, n_steps, trace) -> None:

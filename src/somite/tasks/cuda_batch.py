@@ -95,7 +95,7 @@ def _robot_major_empty(shape: tuple, dtype):
 
 def run_batch(system, ctrl: Controllers, params, noise, seeds, n_steps: int,
               trace: Trace) -> None:
-    """:func:`somite.tasks.episode.run_batch` on the GPU: fills the host ``trace`` (which must
+    """:func:`somite.tasks.lanes.run_batch` on the GPU: fills the host ``trace`` (which must
     not record: its per-step arrays must have 0 rows)."""
     if trace.pos.shape[0]:
         raise ValueError("the cuda backend does not record episodes")

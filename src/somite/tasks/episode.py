@@ -1,15 +1,16 @@
 """The batched episode kernel: where the simulator and the controllers meet.
 
-``run_batch`` runs every robot's whole episode in one compiled loop, robots spread over the
-cores with ``prange``. Per control step k = 1..n_steps (docs/original-system.md section 1.6): the
+Per control step k = 1..n_steps (docs/original-system.md section 1.6): the
 physics advances ``substeps`` steps under the actuation of step k - 1, the sensors read, the
 controller computes the actuation for step k. Nothing is shared between robots but read-only
 inputs, so a robot's outcome is the same whatever batch it runs in.
 
 An episode is :func:`start`, :func:`control_step` for k = 1..n_steps and :func:`finish`, over one
-robot's :class:`RobotState`; the CPU loop, the CUDA kernel (:mod:`somite.tasks.cuda_batch`) and
-the Python stepper (:class:`somite.tasks.stepper.Episode`) all run these three functions. The
-state's arrays (:class:`Work`) are described once, in :data:`WORK_FIELDS`.
+robot's :class:`RobotState`; the CPU kernel (:mod:`somite.tasks.lanes`, which splits a control
+step into :func:`before_physics`, the physics and :func:`after_physics` to advance a group of
+robots together), the CUDA kernel (:mod:`somite.tasks.cuda_batch`) and the Python stepper
+(:class:`somite.tasks.stepper.Episode`) all run these functions. The state's arrays
+(:class:`Work`) are described once, in :data:`WORK_FIELDS`.
 """
 
 from __future__ import annotations
@@ -18,7 +19,6 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from numba import prange
 
 from .._jit import njit
 from ..brain.kernels import graph_step
@@ -44,8 +44,9 @@ from ..sim.robot import (
     ground_view,
     reset_scratch,
     robot_in,
+    robot_over,
 )
-from ..sim.sensors import angle_mode, lidar_rays, sense, update_histories, voxel_state
+from ..sim.sensors import angle_mode, sense, update_histories, voxel_state
 
 ZERO, SINE, TABLE, GRAPH = 0, 1, 2, 3
 CONTROLLER_KINDS = {"zero": ZERO, "sine": SINE, "table": TABLE, "graph": GRAPH}
@@ -335,7 +336,14 @@ def work_row(work, b, system, ctrl) -> Work:
 def robot_state(system, b, params, work, rays) -> RobotState:
     """Robot ``b``'s :class:`RobotState` over ``work`` (its :func:`robot_work` or
     :func:`work_row`) and ``rays`` (:func:`~somite.sim.sensors.lidar_rays`)."""
-    robot = robot_in(system, b, params, work.inv_mass, work.inv_inertia)
+    robot_in(system, b, params, work.inv_mass, work.inv_inertia)
+    return state_over(system, b, work, rays)
+
+
+@njit(inline="always")
+def state_over(system, b, work, rays) -> RobotState:
+    """:func:`robot_state` over a ``work`` that it has filled before."""
+    robot = robot_over(system, b, work.inv_mass, work.inv_inertia)
     scratch = Scratch(work.rest, work.cos, work.sin, work.spring, work.rope, work.weld,
                       work.contacts, work.previous, work.counts, work.polygon, work.clipped,
                       work.contact, work.segment)
@@ -408,7 +416,26 @@ def start(b, system, params, trace, state) -> None:
 @njit(inline="always")
 def control_step(k, b, system, ctrl, params, noise, seed, trace, state) -> bool:
     """Control step ``k`` (1..n_steps) of robot ``b``: False when its state went non-finite,
-    which ends its episode (``trace.status``)."""
+    which ends its episode (``trace.status``). The physics under the actuation in force
+    (:func:`before_physics`, ``advance``), then :func:`after_physics`; the CPU kernel
+    (:mod:`somite.tasks.lanes`) runs the three parts over a group of robots at once."""
+    before_physics(state.robot, state.work.actuation, params, state.scratch.rest)
+    advance(state.robot, state.ground, state.scratch, state.work.body_pos, state.work.body_vel,
+            params, int(params.substeps))
+    return after_physics(k, b, system, ctrl, params, noise, seed, trace, state)
+
+
+@njit(inline="always")
+def before_physics(robot, actuation, params, rest) -> None:
+    """The springs' rest lengths ``rest`` under the actuation in force."""
+    set_rest_lengths(robot.n_springs, robot.kind, robot.owner, actuation, params.contract,
+                     params.expand, rest)
+
+
+@njit(inline="always")
+def after_physics(k, b, system, ctrl, params, noise, seed, trace, state) -> bool:
+    """What control step ``k`` does after its physics: check the state, observe, sense,
+    control, record (:func:`control_step`'s return value)."""
     robot = state.robot
     ground = state.ground
     scratch = state.scratch
@@ -426,9 +453,6 @@ def control_step(k, b, system, ctrl, params, noise, seed, trace, state) -> bool:
     readings = work.readings
     actuation = work.actuation
     tally = work.tally
-    set_rest_lengths(robot.n_springs, robot.kind, robot.owner, actuation, params.contract,
-                     params.expand, scratch.rest)
-    advance(robot, ground, scratch, body_pos, body_vel, params, int(params.substeps))
     corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, pos, vel)
     cx, cy = _centre_of_mass(n_points, mass, body_pos)
     # The state's check, once per control step: any NaN or inf among the positions reaches the
@@ -491,19 +515,3 @@ def episode(b, system, ctrl, params, noise, seed, n_steps, trace, state) -> None
         if not control_step(k, b, system, ctrl, params, noise, seed, trace, state):
             break
     finish(b, trace, state)
-
-
-@njit
-def run_robot(b, system, ctrl, params, noise, seed, n_steps, trace):
-    """Simulate robot ``b`` of the batch for ``n_steps`` control steps into ``trace``
-    (``noise``: see :func:`~somite.sim.sensors.noise_table`)."""
-    state = robot_state(system, b, params, robot_work(system, ctrl, params, b),
-                        lidar_rays(params))
-    episode(b, system, ctrl, params, noise, seed, n_steps, trace, state)
-
-
-@njit(parallel=True)
-def run_batch(system, ctrl, params, noise, seeds, n_steps, trace):
-    """Run every robot of the batch; robots are spread over the available threads."""
-    for b in prange(seeds.shape[0]):
-        run_robot(b, system, ctrl, params, noise, seeds[b], n_steps, trace)

@@ -4,7 +4,7 @@
 :func:`~somite.tasks.episode.control_step` and :func:`~somite.tasks.episode.finish` as the
 compiled loop, over state it keeps between calls (a :class:`~somite.tasks.episode.Work` of
 batch arrays), so an episode stepped to its end leaves the trace that
-:func:`~somite.tasks.episode.run_batch` leaves, bit for bit. Each call is one compiled batch
+:func:`~somite.tasks.lanes.run_batch` leaves, bit for bit. Each call is one compiled batch
 function spreading the robots over the cores.
 """
 

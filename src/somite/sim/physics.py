@@ -150,6 +150,16 @@ def relative_velocity(vel, a, b, rax, ray, rbx, rby):
 
 
 @njit(inline="always")
+def unit(x, y):
+    """(x, y) scaled to length 1, and its length; a vector shorter than LINEAR_SLOP has no
+    direction (dyn4j's rule), so it gives (0, 0)."""
+    length = math.sqrt(x * x + y * y)
+    if length < LINEAR_SLOP:
+        return 0.0, 0.0, length
+    return x / length, y / length, length
+
+
+@njit(inline="always")
 def spring_setup(s, a, b, anchor, rest, work, pos, vel, cos, sin, inv_mass, inv_inertia, dt,
                  omega, damping_ratio):
     """Set up spring s (ends a, b) for this step (a damped spring as a soft constraint: its
@@ -157,14 +167,7 @@ def spring_setup(s, a, b, anchor, rest, work, pos, vel, cos, sin, inv_mass, inv_
     it, as dyn4j's DistanceJoint) and apply last step's impulse."""
     rax, ray = turned(a, anchor[s, 0], anchor[s, 1], cos, sin)
     rbx, rby = turned(b, anchor[s, 2], anchor[s, 3], cos, sin)
-    nx = pos[a, 0] + rax - pos[b, 0] - rbx
-    ny = pos[a, 1] + ray - pos[b, 1] - rby
-    length = math.sqrt(nx * nx + ny * ny)
-    if length < LINEAR_SLOP:
-        nx = ny = 0.0
-    else:
-        nx /= length
-        ny /= length
+    nx, ny, length = unit(pos[a, 0] + rax - pos[b, 0] - rbx, pos[a, 1] + ray - pos[b, 1] - rby)
     cra = rax * ny - ray * nx
     crb = rbx * ny - rby * nx
     w = inv_mass[a] + inv_inertia[a] * cra * cra + inv_mass[b] + inv_inertia[b] * crb * crb
@@ -227,14 +230,7 @@ def rope_setup(r, a, b, work, pos, vel, inv_mass, inv_inertia):
     """Rope limit r between the centres of a voxel's adjacent blocks a, b: active while the
     blocks are closer than one block side (they would overlap), as dyn4j's RopeJoint with a
     lower limit only; while active, the limit holds the distance in both directions."""
-    nx = pos[a, 0] - pos[b, 0]
-    ny = pos[a, 1] - pos[b, 1]
-    length = math.sqrt(nx * nx + ny * ny)
-    if length < LINEAR_SLOP:
-        nx = ny = 0.0
-    else:
-        nx /= length
-        ny /= length
+    nx, ny, length = unit(pos[a, 0] - pos[b, 0], pos[a, 1] - pos[b, 1])
     if length < BLOCK_SIDE:
         w = inv_mass[a] + inv_mass[b]
         work[r, R_NX] = nx

@@ -4,6 +4,7 @@ One generation of the paper's setting (96 offspring, worm, hilly-1-10-rnd, 30 s 
 split into its steps, each timed with the functions `somite evolve` uses. Prints JSON.
 
 Usage: python benchmarks/generation.py [--generations 5] [--population 96] [--shape worm]
+                                      [--evolved 30]
 """
 
 from __future__ import annotations
@@ -29,8 +30,11 @@ def main() -> dict:
     parser.add_argument("--generations", type=int, default=5)
     parser.add_argument("--population", type=int, default=96)
     parser.add_argument("--shape", default="worm")
+    parser.add_argument("--evolved", type=int, default=30,
+                        help="generations evolved first, so that genomes are not all minimal")
     args = parser.parse_args()
-    config = resolve({"shape": args.shape, "population": args.population, "generations": 30})
+    config = resolve({"shape": args.shape, "population": args.population,
+                      "generations": args.evolved})
     with tempfile.TemporaryDirectory() as folder:
         # A population that has evolved a little, so genomes are not all minimal.
         ea = evolve(config, f"{folder}/warm")

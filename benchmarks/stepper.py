@@ -26,9 +26,9 @@ from somite.sim.body import Body
 from somite.sim.config import SimConfig
 from somite.sim.system import compile_system
 from somite.sim.terrain import parse_terrain
-from somite.tasks.lanes import run_groups
+from somite.tasks.lanes import run_group
 from somite.tasks.locomotion import compile_controllers, run
-from somite.tasks.stepper import Episode, start_batch, step_batch
+from somite.tasks.stepper import Episode, _start_robots, _step_robots
 
 
 def _timed(work) -> float:
@@ -63,8 +63,8 @@ def main() -> dict:
         while not episode.done:
             episode.step(given)
 
-    cached = {"compiled_loop": on_disk(run_groups),
-              "stepper": bool(on_disk(start_batch) and on_disk(step_batch))}
+    cached = {"compiled_loop": on_disk(run_group),
+              "stepper": bool(on_disk(_start_robots) and on_disk(_step_robots))}
     first = {"compiled_loop": _timed(compiled), "stepper": _timed(stepped)}
     n_steps = config.n_steps
     result = {

@@ -20,7 +20,7 @@ from .sim.body import Body
 from .sim.config import SimConfig
 from .sim.system import compile_system
 from .sim.terrain import hilly
-from .tasks.lanes import run_groups
+from .tasks.lanes import run_group
 from .tasks.locomotion import compile_controllers, run
 
 
@@ -101,7 +101,7 @@ def compile_seconds(backend: str = "cpu") -> dict:
     elapsed = time.perf_counter() - start
     if backend != "cpu":
         return {"compile_seconds": round(elapsed, 3)}
-    stats = run_groups.stats
+    stats = run_group.stats
     return {
         "compile_or_cache_load_seconds": round(elapsed, 3),
         "loaded_from_cache": bool(stats.cache_hits) and not stats.cache_misses,

@@ -16,9 +16,9 @@ def note_compiling(quiet: bool = False, backend: str = "cpu") -> None:
     if quiet or backend != "cpu" or not sys.stderr.isatty():
         return
     from .._jit import on_disk
-    from ..tasks.lanes import run_groups
+    from ..tasks.lanes import run_group
 
-    if on_disk(run_groups) is False:
+    if on_disk(run_group) is False:
         sys.stderr.write(f"compiling the simulation kernels (once, about {COMPILE_SECONDS} s "
                          "on 2 cores; later runs start at once)...\n")
         sys.stderr.flush()

@@ -406,10 +406,14 @@ def fix_welds(robot, pos, cos, sin) -> bool:
     return held
 
 
-@njit(inline="always")
+@njit(_nrt=False)
 def start_contacts(robot, scratch, pos, vel, params):
     """Set up this step's contacts (found at the end of the last step) and apply their
-    warm-start impulses."""
+    warm-start impulses.
+
+    This and :func:`find_contacts`, called once a step, are compiled once and called rather
+    than inlined like the other passes: inlined into both :func:`advance` and the grouped
+    kernel, they made the first compile twice as long, at no measurable speed."""
     c = scratch.contacts
     inv_mass = robot.inv_mass
     inv_inertia = robot.inv_inertia
@@ -869,7 +873,7 @@ def add_contacts(robot, scratch, pos, a, b, partner, one, two, mu) -> int:
     return points
 
 
-@njit(inline="always")
+@njit(_nrt=False)
 def find_contacts(robot, ground, scratch, pos, params):
     """The contacts for the next step (dyn4j finds them after each step): each block against
     the ground under every terrain segment its bounding box reaches, and the blocks that share

@@ -12,7 +12,7 @@ is bit for bit what :func:`somite.sim.physics.advance` gives the robot alone; wh
 robot (contacts, terrain, sensing, the controller) runs robot by robot, through the same
 :func:`~somite.tasks.episode.start`, :func:`~somite.tasks.episode.before_physics`,
 :func:`~somite.tasks.episode.after_physics` and :func:`~somite.tasks.episode.finish` as the
-CUDA kernel and the stepper. Groups are spread over the cores with ``prange``.
+CUDA kernel and the stepper. Groups are spread over the cores by :func:`somite._threads.spread`.
 """
 
 from __future__ import annotations
@@ -21,9 +21,9 @@ import math
 
 import numba
 import numpy as np
-from numba import prange
 
 from .._jit import njit
+from .._threads import spread
 from ..sim import physics as ph
 from ..sim.robot import Robot, Scratch, robot_over
 from ..sim.sensors import lidar_rays
@@ -243,22 +243,20 @@ def run_group(system, ctrl, params, noise, seeds, n_steps, trace, work, rays, fi
         finish(first + i, trace, _lane(system, ctrl, work, rays, first + i))
 
 
-@njit(parallel=True)
-def run_groups(system, ctrl, params, noise, seeds, n_steps, trace, work, first, count):
-    """Every group's episodes; groups are spread over the available threads."""
+def run_groups(system, ctrl, params, noise, seeds, n_steps, trace, work, first, count) -> None:
+    """Every group's episodes (:func:`run_group`), the groups handed out to the threads one at
+    a time, as robots take unequal times (graph sizes, contacts)."""
     rays = lidar_rays(params)
-    for g in prange(first.shape[0]):
+
+    def one(g: int) -> None:
         run_group(system, ctrl, params, noise, seeds, n_steps, trace, work, rays, first[g],
                   count[g])
+
+    spread(one, first.shape[0])
 
 
 def run_batch(system, ctrl, params, noise, seeds, n_steps, trace) -> None:
     """Run every robot of the batch into ``trace`` (the CPU backend)."""
     first, count = groups(system)
-    # Robots take unequal times (graph sizes, contacts): hand the groups out one at a time.
-    previous = numba.set_parallel_chunksize(1)
-    try:
-        run_groups(system, ctrl, params, noise, seeds, n_steps, trace,
-                   new_work(system, ctrl, params), first, count)
-    finally:
-        numba.set_parallel_chunksize(previous)
+    run_groups(system, ctrl, params, noise, seeds, n_steps, trace,
+               new_work(system, ctrl, params), first, count)

@@ -4,18 +4,19 @@
 :func:`~somite.tasks.episode.control_step` and :func:`~somite.tasks.episode.finish` as the
 compiled loop, over state it keeps between calls (a :class:`~somite.tasks.episode.Work` of
 batch arrays), so an episode stepped to its end leaves the trace that
-:func:`~somite.tasks.lanes.run_batch` leaves, bit for bit. Each call is one compiled batch
-function spreading the robots over the cores.
+:func:`~somite.tasks.lanes.run_batch` leaves, bit for bit. Each call runs one compiled
+function a thread, over that thread's share of the robots.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from concurrent.futures import Executor, ThreadPoolExecutor
 
 import numpy as np
-from numba import prange
 
 from .._jit import njit
+from .._threads import spread, threads_for
 from ..brain.compile import compile_genome
 from ..brain.genome import Genome
 from ..errors import bad
@@ -37,45 +38,54 @@ from .episode import (
 from .locomotion import compile_batch
 
 
-@njit(parallel=True)
-def start_batch(system, ctrl, params, trace, work, rays):
-    """:func:`~somite.tasks.episode.start` every robot over its row of ``work``."""
-    for b in prange(system.n_points.shape[0]):
+@njit
+def _start_robots(system, ctrl, params, trace, work, rays, first, stride):
+    for b in range(first, system.n_points.shape[0], stride):
         state = robot_state(system, b, params, work_row(work, b, system, ctrl), rays)
         start(b, system, params, trace, state)
         finish(b, trace, state)
 
 
 @njit
-def _put_in_force(b, k, given, actuation, trace):
-    # What was in force over step k is what the trace shows at step k - 1, which decided it.
+def _step_robots(k, system, ctrl, params, noise, seeds, trace, work, rays, given, first, stride):
     recording = trace.pos.shape[0] > 0
-    for v in range(actuation.shape[0]):
-        actuation[v] = given[b, v]
-        if recording:
-            trace.actuation[b, k - 1, v] = given[b, v]
-
-
-@njit
-def _step_robot(k, b, system, ctrl, params, noise, seed, trace, state):
-    # control_step is inlined where it is called; inlined straight into the prange loop below,
-    # its writes to the trace were lost (numba 0.68.1), so it is inlined here instead.
-    control_step(k, b, system, ctrl, params, noise, seed, trace, state)
-
-
-@njit(parallel=True)
-def step_batch(k, system, ctrl, params, noise, seeds, trace, work, rays, given):
-    """Control step ``k`` of every robot still running; ``given`` (B, V) replaces the actuation
-    in force over the step (0 rows: the controllers' own)."""
-    for b in prange(system.n_points.shape[0]):
+    for b in range(first, system.n_points.shape[0], stride):
         if trace.status[b] == STATUS_OK:
             state = robot_state(system, b, params, work_row(work, b, system, ctrl), rays)
             if given.shape[0] > 0:
-                # A function of its own: written inline in this prange loop, the writes to the
-                # trace were lost (numba 0.68.1).
-                _put_in_force(b, k, given, state.work.actuation, trace)
-            _step_robot(k, b, system, ctrl, params, noise, seeds[b], trace, state)
+                # What was in force over step k is what the trace shows at step k - 1, which
+                # decided it.
+                actuation = state.work.actuation
+                for v in range(actuation.shape[0]):
+                    actuation[v] = given[b, v]
+                    if recording:
+                        trace.actuation[b, k - 1, v] = given[b, v]
+            control_step(k, b, system, ctrl, params, noise, seeds[b], trace, state)
             finish(b, trace, state)
+
+
+def _by_threads(kernel, args, n_robots: int, pool: Executor | None, threads: int | None):
+    # Thread j takes robots j, j + T, j + 2T, ...: neighbours in a batch (a shape's robots,
+    # a population's) cost alike, so each thread gets a like share.
+    threads = threads or threads_for(n_robots)
+    spread(lambda j: kernel(*args, j, threads), threads, pool)
+
+
+def start_batch(system, ctrl, params, trace, work, rays, pool: Executor | None = None,
+                threads: int | None = None) -> None:
+    """:func:`~somite.tasks.episode.start` every robot over its row of ``work``, the robots
+    spread over ``threads`` threads (default: Numba's thread count), those of ``pool`` if
+    given, else started for this call."""
+    _by_threads(_start_robots, (system, ctrl, params, trace, work, rays),
+                system.n_points.shape[0], pool, threads)
+
+
+def step_batch(k, system, ctrl, params, noise, seeds, trace, work, rays, given,
+               pool: Executor | None = None, threads: int | None = None) -> None:
+    """Control step ``k`` of every robot still running; ``given`` (B, V) replaces the actuation
+    in force over the step (0 rows: the controllers' own). Threads as in :func:`start_batch`."""
+    _by_threads(_step_robots, (k, system, ctrl, params, noise, seeds, trace, work, rays, given),
+                system.n_points.shape[0], pool, threads)
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:
@@ -140,8 +150,12 @@ class Episode:
         self._work = new_work(self.system, self.controllers, self._params, np.zeros)
         self._no_actuation = np.zeros((0, self.n_voxels))
         self._k = 0
+        # One pool for the episode's life: starting threads at every step would cost more
+        # than a small batch's step.
+        self._threads = threads_for(n)
+        self._pool = ThreadPoolExecutor(self._threads) if self._threads > 1 else None
         start_batch(self.system, self.controllers, self._params, self._trace, self._work,
-                    self._rays)
+                    self._rays, self._pool, self._threads)
 
     @property
     def n_robots(self) -> int:
@@ -182,7 +196,11 @@ class Episode:
             given = np.ascontiguousarray(given)
         self._k += 1
         step_batch(self._k, self.system, self.controllers, self._params, self._noise,
-                   self._seeds, self._trace, self._work, self._rays, given)
+                   self._seeds, self._trace, self._work, self._rays, given, self._pool,
+                   self._threads)
+        if self.done and self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
         return self
 
     def run(self) -> Trace:

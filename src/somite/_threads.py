@@ -1,0 +1,39 @@
+"""Spreading compiled work over the cores from Python.
+
+Kernels are compiled without ``parallel=True``: a ``prange`` loop has Numba optimise and emit
+the whole call tree below it again for its gufunc, and its index is unsigned, so every
+robot-level function called from it was compiled a second time for the stepper's signed index
+(the batch kernel's first compile: 217 s with ``prange``, 194 s without, on 2 cores). Every
+kernel releases the GIL (``nogil``), so plain threads calling them run in parallel instead. The number of threads is Numba's
+(``numba.set_num_threads``, ``NUMBA_NUM_THREADS``), as it was for the ``prange`` loops.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from concurrent.futures import Executor, ThreadPoolExecutor, wait
+
+import numba
+
+
+def threads_for(n_tasks: int) -> int:
+    """The threads that ``n_tasks`` tasks get: Numba's thread count, at most one a task."""
+    return max(1, min(numba.get_num_threads(), n_tasks))
+
+
+def spread(task: Callable[[int], None], n_tasks: int, pool: Executor | None = None) -> None:
+    """``task(i)`` for every i in ``range(n_tasks)``, handed out to the threads one at a time
+    (over ``pool`` if given, else over :func:`threads_for` threads started for this call); the
+    first exception of a task is raised here once all have ended."""
+    if pool is None and threads_for(n_tasks) == 1:
+        for i in range(n_tasks):
+            task(i)
+        return
+    if pool is None:
+        with ThreadPoolExecutor(threads_for(n_tasks)) as own:
+            spread(task, n_tasks, own)
+        return
+    futures = [pool.submit(task, i) for i in range(n_tasks)]
+    wait(futures)
+    for future in futures:
+        future.result()

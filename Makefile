@@ -17,8 +17,8 @@ demo: $(STAMP)
 	$(BIN)/somite demo --out demo
 
 test: $(STAMP)
-	@echo "running the test suite on every core (about 10 minutes on 2; the first tests compile the kernels)"
-	$(BIN)/python -m pytest -q -n auto
+	@echo "running the test suite on every core (under 10 minutes on 2; the first minutes compile the kernels)"
+	$(BIN)/python -m pytest -q -n auto --dist loadgroup
 
 bench: $(STAMP)
 	$(BIN)/somite bench

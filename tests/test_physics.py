@@ -53,9 +53,9 @@ def test_dropped_robot_falls_with_g(biped):
 
 @pytest.mark.slow
 def test_random_bang_bang_never_inverts_or_blows_up(worm, biped):
-    """400 random bang-bang controllers (switching up to 30 Hz), 30 s on hilly terrain."""
+    """240 random bang-bang controllers (switching up to 30 Hz), 30 s on hilly terrain."""
     rng = np.random.default_rng(1)
-    for body, count in ((worm, 200), (biped, 200)):
+    for body, count in ((worm, 120), (biped, 120)):
         voxels = body.shape.n_voxels
         tables = [Table(rng.choice([-1.0, 1.0], size=(int(rng.integers(2, 121)), voxels)))
                   for _ in range(count)]

@@ -211,7 +211,6 @@ def smoke_run(tmp_path_factory) -> Path:
     return out
 
 
-@pytest.mark.xdist_group("smoke")  # one worker builds smoke_run for them all
 def test_smoke_writes_every_task_folder(smoke_run, capsys):
     doc = json.loads((smoke_run / "campaign.json").read_text())
     assert doc["format"] == "somite-campaign" and doc["name"] == "smoke"
@@ -234,7 +233,6 @@ def test_smoke_writes_every_task_folder(smoke_run, capsys):
     assert f"{len(doc['tasks'])} done, 0 running, 0 partial, 0 queued" in out
 
 
-@pytest.mark.xdist_group("smoke")  # one worker builds smoke_run for them all
 def test_a_finished_campaign_resumes_to_nothing(smoke_run):
     before = {p: p.stat().st_mtime_ns for p in smoke_run.rglob("*") if p.is_file()}
     result = _run("campaign", "run", "--resume", "--out", str(smoke_run), "--quiet")
@@ -258,7 +256,6 @@ def _wait(predicate, timeout: float = 120.0, every: float = 0.05):
     raise AssertionError("timed out waiting")
 
 
-@pytest.mark.xdist_group("smoke")  # one worker builds smoke_run for them all
 def test_a_scheduler_and_workers_started_by_hand_give_the_same_logs(smoke_run, tmp_path):
     port = _free_port()
     address = f"tcp://127.0.0.1:{port}"
@@ -286,7 +283,6 @@ def _done(directory: Path) -> int:
     return len(list(directory.glob("*/*/done.json")))
 
 
-@pytest.mark.xdist_group("smoke")  # one worker builds smoke_run for them all
 def test_a_killed_campaign_resumes_to_the_same_logs(smoke_run, tmp_path):
     out = tmp_path / "smoke"
     process = subprocess.Popen([*SOMITE, "campaign", "run", "smoke", "--out", str(out),
@@ -303,7 +299,6 @@ def test_a_killed_campaign_resumes_to_the_same_logs(smoke_run, tmp_path):
     assert _logs(out) == _logs(smoke_run)
 
 
-@pytest.mark.xdist_group("smoke")  # one worker builds smoke_run for them all
 def test_a_retried_task_leaves_no_temporary_file_of_its_killed_attempt(smoke_run, tmp_path):
     """A task killed between write and rename leaves ``.NAME.PID.RAND.tmp``; redoing it must
     not keep that file beside the outputs (a killed campaign's resume once did)."""

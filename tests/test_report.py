@@ -17,10 +17,6 @@ from somite.cli import main
 
 from .campaign_fixture import UNFINISHED, build_campaign
 
-# One test worker takes the whole module (make test's --dist loadgroup), so that the campaign
-# and its report, module fixtures of ~40 s, are built once and not once per worker.
-pytestmark = pytest.mark.xdist_group("report")
-
 SECTIONS = ("## Tasks", "## Table 1", "## Figure 3", "## Figure 10", "## Figure 5",
             "## Figure 11", "### Figure 7", "### Figure 8", "## Figure 9", "## Figure 12",
             "## Beyond the paper: reassembly along the discovered modules",

@@ -20,7 +20,7 @@ from somite.tasks.backends import BACKENDS, check_backend, cuda_unavailable
 from .conftest import expect_error
 
 # Two robots of different bodies and controllers, on their own hilly terrains, under both
-# presets (the paper's for 0.75 s: they land at about 0.45 s; the original code's sensors for
+# presets (the paper's for 0.6 s: they land at about 0.45 s; the original code's sensors for
 # 0.25 s, as the simulator is slow): the CPU kernel called directly against the backend named in
 # argv[1] through the registry (cuda: run by numba-cuda's simulator, plain Python, one thread
 # per robot, as CI has no GPU), and against the Python stepper (somite.Episode), which runs the
@@ -54,7 +54,7 @@ system = compile_system(bodies, terrains)
 ctrl = compile_controllers(graphs, [b.shape.n_voxels for b in bodies])
 seeds = np.array([11, 12], dtype=np.uint64)
 result = {}
-for preset_name, duration in (("paper", 0.75), ("original-code", 0.25)):
+for preset_name, duration in (("paper", 0.6), ("original-code", 0.25)):
     config = preset(preset_name, duration=duration)
     cpu = new_trace(2, config.n_steps, system, False)
     run_batch(system, ctrl, pack_params(config), noise_table(config), seeds, config.n_steps, cpu)

@@ -413,7 +413,7 @@ def start_contacts(robot, scratch, pos, vel, params):
 
     This and :func:`find_contacts`, called once a step, are compiled once and called rather
     than inlined like the other passes: inlined into both :func:`advance` and the grouped
-    kernel, they made the first compile twice as long, at no measurable speed."""
+    kernel, they made the first compile of both 1.8x as long (BENCHMARKS.md)."""
     c = scratch.contacts
     inv_mass = robot.inv_mass
     inv_inertia = robot.inv_inertia

@@ -28,7 +28,7 @@ from somite.sim.system import compile_system
 from somite.sim.terrain import parse_terrain
 from somite.tasks.lanes import run_group
 from somite.tasks.locomotion import compile_controllers, run
-from somite.tasks.stepper import Episode, _start_robots, _step_robots
+from somite.tasks.stepper import KERNELS, Episode
 
 
 def _timed(work) -> float:
@@ -64,7 +64,7 @@ def main() -> dict:
             episode.step(given)
 
     cached = {"compiled_loop": on_disk(run_group),
-              "stepper": bool(on_disk(_start_robots) and on_disk(_step_robots))}
+              "stepper": all(on_disk(kernel) for kernel in KERNELS)}
     first = {"compiled_loop": _timed(compiled), "stepper": _timed(stepped)}
     n_steps = config.n_steps
     result = {

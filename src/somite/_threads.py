@@ -23,18 +23,31 @@ def threads_for(n_tasks: int) -> int:
 
 
 def spread(task: Callable[[int], None], n_tasks: int, pool: Executor | None = None) -> None:
-    """``task(i)`` for every i in ``range(n_tasks)``, handed out to the threads one at a time
-    (over ``pool`` if given, else over :func:`threads_for` threads started for this call); the
-    first exception of a task is raised here once all have ended."""
-    if pool is None and threads_for(n_tasks) == 1:
+    """``task(i)`` for every i in ``range(n_tasks)``, handed out one at a time to the calling
+    thread and to the workers of ``pool`` if given (else to :func:`threads_for` - 1 workers
+    started for this call); the first exception of a task is raised here once all have
+    ended. The calling thread takes its share: handing every task to the pool and waiting
+    cost a worker's wake-up more each call (the stepper calls this once a control step)."""
+    helpers = threads_for(n_tasks) - 1
+    if pool is None and helpers == 0:
         for i in range(n_tasks):
             task(i)
         return
     if pool is None:
-        with ThreadPoolExecutor(threads_for(n_tasks)) as own:
+        with ThreadPoolExecutor(helpers) as own:
             spread(task, n_tasks, own)
         return
-    futures = [pool.submit(task, i) for i in range(n_tasks)]
-    wait(futures)
+    # next() on a range iterator is one step under the GIL, so no task is taken twice.
+    todo = iter(range(n_tasks))
+
+    def drain() -> None:
+        for i in todo:
+            task(i)
+
+    futures = [pool.submit(drain) for _ in range(min(helpers, n_tasks - 1))]
+    try:
+        drain()
+    finally:
+        wait(futures)
     for future in futures:
         future.result()

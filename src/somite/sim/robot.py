@@ -115,8 +115,10 @@ def robot_over(system, b, inv_mass, inv_inertia) -> Robot:
     )
 
 
-@njit
+@njit(inline="always")
 def ground_view(system, b) -> Ground:
+    # Inlined, as :func:`somite.tasks.episode.work_row` is: kernels without reference
+    # counting call it.
     t = system.terrain_of[b]
     return Ground(system.terrain_n[t], system.terrain_x[t], system.terrain_y[t],
                   system.terrain_nx[t], system.terrain_ny[t])

@@ -64,6 +64,11 @@ def _step_robots(k, system, ctrl, params, noise, seeds, trace, work, rays, given
             finish(b, trace, state)
 
 
+KERNELS = (_start_robots, _step_robots)
+"""The compiled functions that :class:`Episode` runs (to ask whether Numba's cache holds them:
+:func:`somite._jit.on_disk`)."""
+
+
 def _by_threads(kernel, args, n_robots: int, pool: Executor | None, threads: int | None):
     # Thread j takes robots j, j + T, j + 2T, ...: neighbours in a batch (a shape's robots,
     # a population's) cost alike, so each thread gets a like share.
@@ -150,10 +155,10 @@ class Episode:
         self._work = new_work(self.system, self.controllers, self._params, np.zeros)
         self._no_actuation = np.zeros((0, self.n_voxels))
         self._k = 0
-        # One pool for the episode's life: starting threads at every step would cost more
-        # than a small batch's step.
+        # One pool for the episode's life (starting threads at every step would cost more
+        # than a small batch's step); the calling thread is the last of the threads.
         self._threads = threads_for(n)
-        self._pool = ThreadPoolExecutor(self._threads) if self._threads > 1 else None
+        self._pool = ThreadPoolExecutor(self._threads - 1) if self._threads > 1 else None
         start_batch(self.system, self.controllers, self._params, self._trace, self._work,
                     self._rays, self._pool, self._threads)
 

@@ -117,8 +117,8 @@ def robot_over(system, b, inv_mass, inv_inertia) -> Robot:
 
 @njit(inline="always")
 def ground_view(system, b) -> Ground:
-    # Inlined, as :func:`somite.tasks.episode.work_row` is: kernels without reference
-    # counting call it.
+    # Inlined: kernels compiled without reference counting call it, and the views that a
+    # compiled call returns counted would never be released (see episode.borrowed_work_row).
     t = system.terrain_of[b]
     return Ground(system.terrain_n[t], system.terrain_x[t], system.terrain_y[t],
                   system.terrain_nx[t], system.terrain_ny[t])

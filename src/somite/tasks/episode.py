@@ -312,15 +312,7 @@ def robot_work(system, ctrl, params, b) -> Work:
 
 
 @njit(inline="always")
-def work_row(work, b, system, ctrl) -> Work:
-    """Robot ``b``'s :class:`Work` as views of a batch's (:func:`new_work`), trimmed to its own
-    sizes (:data:`WORK_FIELDS`): a GPU thread cannot allocate, the stepper keeps the state.
-
-    Inlined: called from a kernel compiled without reference counting (``_nrt=False``), a
-    compiled ``work_row`` returned views that it had counted and the caller never released,
-    so each batch's arrays were never freed (11 MB a batch of 96 worms), and the two threads
-    contended for the same counters at every physics pass (the batch kernel 10-15% slower on
-    2 threads)."""
+def _work_views(work, b, system, ctrl) -> Work:
     p = system.n_points[b]
     s = system.n_springs[b]
     v = system.n_voxels[b]
@@ -336,6 +328,22 @@ def work_row(work, b, system, ctrl) -> Work:
         work.readings[b, :system.n_readings[b]], work.actuation[b, :v], work.h_prev[b, :n],
         work.h_next[b, :n], work.tally[b],
     )
+
+
+@njit
+def work_row(work, b, system, ctrl) -> Work:
+    """Robot ``b``'s :class:`Work` as views of a batch's (:func:`new_work`), trimmed to its own
+    sizes (:data:`WORK_FIELDS`): a GPU thread cannot allocate, the stepper keeps the state."""
+    return _work_views(work, b, system, ctrl)
+
+
+@njit(_nrt=False)
+def borrowed_work_row(work, b, system, ctrl) -> Work:
+    """:func:`work_row` for kernels compiled without reference counting (``_nrt=False``), and
+    only for them: the compiled :func:`work_row` returns views that it has counted, which such
+    a kernel never releases (each batch's arrays then stayed in memory: 11 MB a batch of 96
+    worms); these views are counted by no one, as the kernel's own are not."""
+    return _work_views(work, b, system, ctrl)
 
 
 @njit

@@ -30,6 +30,7 @@ from ..sim.sensors import lidar_rays
 from .episode import (
     after_physics,
     before_physics,
+    borrowed_work_row,
     finish,
     new_work,
     robot_state,
@@ -66,7 +67,8 @@ def groups(system, group_size: int = GROUP_SIZE, threads: int | None = None):
 
 @njit(inline="always")
 def _lane(system, ctrl, work, rays, b):
-    return state_over(system, b, work_row(work, b, system, ctrl), rays)
+    # Only in kernels compiled without reference counting (borrowed_work_row).
+    return state_over(system, b, borrowed_work_row(work, b, system, ctrl), rays)
 
 
 @njit
@@ -251,7 +253,8 @@ def run_group(system, ctrl, params, noise, seeds, n_steps, trace, work, rays, fi
     _steps(system, ctrl, params, noise, seeds, n_steps, trace, work, rays, first, count, lanes,
            flags, joints, scratch, pos, vel, rest)
     for i in range(count):
-        finish(first + i, trace, _lane(system, ctrl, work, rays, first + i))
+        b = first + i
+        finish(b, trace, state_over(system, b, work_row(work, b, system, ctrl), rays))
 
 
 def run_groups(system, ctrl, params, noise, seeds, n_steps, trace, work, first, count) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from contextlib import contextmanager
 
-COMPILE_SECONDS = 150
+COMPILE_SECONDS = 200
 """About how long the first episode takes to compile the simulation kernels on a cold Numba
 cache, on the 2-core machine of BENCHMARKS.md (later runs load them from disk at once)."""
 

@@ -22,7 +22,19 @@ prints, per shape (worm-6x2, biped-4x3), as JSON:
   cells (target >= 0.7) and per band (1-3, 5-10, 15-30 Hz), somite's fastest cell over the
   reference's per terrain (target <= 1.5), and the voxels' deformation per frequency: ``ar_h1``,
   the amplitude of the area ratio's first harmonic over t = 5-30 s, mean over voxels, computed
-  as CL.java's ``areaStats`` does.
+  as CL.java's ``areaStats`` does; with ``java-sine-1-30hz-a0999.csv`` beside it (the same cells
+  at amplitude 0.999), the reference's own floor: its rank against itself;
+- ``grid``: the worm's and the biped's area loop at gains 12-32 (``loop-grid.csv``: the
+  ``-arealoop-w16`` genome with its weight W and bias -W tanh(0.5)), on three terrains and four
+  noise levels: per shape and terrain the median v_x and how many cells pass 1 m/s in each
+  simulator. A loop's speed is chaotic in both (which way the voxels lock, and whether they
+  do, changes with the noise level), so this grid, not one cell, is what compares.
+
+``--measured DIR`` reads the reference's measurements (``java-*.csv``, ``loop-grid.csv``) from
+DIR where it has them, the rest from ``--reference``, whose genomes run:
+``benchmarks/reference/closed-loop/`` holds more cells measured in 2D-VSR-Sim as it is
+(``stock/``) and the same cells without its continuous collision detection (``no-ccd/``; its
+README says why that matters).
 
 ``--only`` picks sections; ``--limit K`` runs only the first K genomes or sine cells of each
 shape's list (quick checks); ``--option`` sets SimConfig options on top of the preset (the
@@ -31,7 +43,7 @@ Single cells are chaotic in both simulators: look at ranks and rates.
 
     python benchmarks/closed_loop.py [--only still,loops,init,sines] [--poses 100] [--seed 0]
                                      [--limit K] [--option NAME=VALUE ...] [--cells PATH]
-                                     [--reference DIR]
+                                     [--reference DIR] [--measured DIR]
 """
 
 from __future__ import annotations
@@ -64,7 +76,7 @@ from somite.tasks.episode import SETTLE_STEPS  # noqa: E402
 from somite.tasks.locomotion import simulate_batch  # noqa: E402
 
 DEFAULT_REFERENCE = Path(__file__).resolve().parents[2] / "shared/reference/closed-loop"
-SECTIONS = ("still", "loops", "init", "sines")
+SECTIONS = ("still", "loops", "init", "sines", "grid")
 PRESET = "original-code"
 
 STILL_REFERENCE = {"worm-6x2": {"mean_abs_vx": 0.0036, "max_abs_vx": 0.015},
@@ -139,8 +151,14 @@ def shape_of(genome: Genome) -> str:
     raise ValueError(f"not a reference body: {grid}")
 
 
+def measurement(measured: Path, reference: Path, name: str) -> Path:
+    """A measurement file: ``measured``'s if it has one, else the reference's."""
+    return measured / name if (measured / name).is_file() else reference / name
+
+
 def _floats(row: dict, *keys: str) -> dict:
-    return {k: float(row[k]) for k in keys}
+    """The row's numbers under ``keys``; NaN where the measurement has no such column."""
+    return {k: float(row[k]) if row.get(k) not in (None, "") else math.nan for k in keys}
 
 
 # -- the sections' cells --------------------------------------------------------------------------
@@ -155,8 +173,9 @@ def still_cells(poses: int, seed: int) -> list[Cell]:
     return cells
 
 
-def loop_cells(reference: Path, limit: int | None) -> list[Cell]:
-    ref = {(r["name"], r["terrain"]): r for r in read_csv(reference / "java-loops.csv")}
+def loop_cells(reference: Path, measured: Path, limit: int | None) -> list[Cell]:
+    ref = {(r["name"], r["terrain"]): r
+           for r in read_csv(measurement(measured, reference, "java-loops.csv"))}
     cells = []
     per_shape: dict[str, int] = {}
     for name, genome in read_genomes(reference / "loop-genomes.jsonl"):
@@ -173,10 +192,10 @@ def loop_cells(reference: Path, limit: int | None) -> list[Cell]:
     return cells
 
 
-def init_cells(reference: Path, limit: int | None) -> list[Cell]:
+def init_cells(reference: Path, measured: Path, limit: int | None) -> list[Cell]:
     cells = []
     for short in ("worm", "biped"):
-        rows = read_csv(reference / f"java-init-{short}.csv")
+        rows = read_csv(measurement(measured, reference, f"java-init-{short}.csv"))
         ref = {(r["name"], r["terrain"], float(r["sigma"])): r for r in rows}
         terrains = list(dict.fromkeys(r["terrain"] for r in rows))
         sigmas = sorted({float(r["sigma"]) for r in rows}, reverse=True)
@@ -191,16 +210,57 @@ def init_cells(reference: Path, limit: int | None) -> list[Cell]:
     return cells
 
 
-def sine_cells(reference: Path, limit: int | None) -> list[Cell]:
-    rows = read_csv(reference / "java-sine-1-30hz.csv")
+def sine_cells(reference: Path, measured: Path, limit: int | None) -> list[Cell]:
+    rows = read_csv(measurement(measured, reference, "java-sine-1-30hz.csv"))
+    floor = measurement(measured, reference, "java-sine-1-30hz-a0999.csv")
+    chaos = ({(r["shape"], r["terrain"], r["freq"], r["phase_name"]): float(r["vx"])
+              for r in read_csv(floor)} if floor.is_file() else {})
     cells = []
     for shape in SHAPES:
         for r in [r for r in rows if r["shape"] == shape][:limit]:
             cells.append(Cell("sines", shape, r["terrain"], LOOP_NOISE,
                               Sine(freq=float(r["freq"]), amp=1.0, phase=float(r["phase"])),
                               freq=float(r["freq"]), phase_name=r["phase_name"],
-                              reference=_floats(r, "vx", "ar_h1", "ar_halfrange", "ar_sd",
-                                                "ar_mean")))
+                              reference={**_floats(r, "vx", "ar_h1", "ar_halfrange", "ar_sd",
+                                                   "ar_mean"),
+                                         "vx_a0999": chaos.get((shape, r["terrain"], r["freq"],
+                                                                r["phase_name"]), math.nan)}))
+    return cells
+
+
+GRID_BASE = "-arealoop-w16"
+"""The loop genome whose gain the grid changes (a = tanh(W (tanh(r) - tanh(0.5))))."""
+GRID_FILE = "loop-grid.csv"
+
+
+def grid_genome(base: dict, gain: float) -> Genome:
+    """The area-loop genome ``base`` (JSON) with every edge's weight W and bias -W tanh(0.5)."""
+    data = json.loads(json.dumps(base))
+    edges = []
+    for e in data["edges"]:
+        if isinstance(e, dict):
+            edges.append({**e, "weight": gain, "bias": -gain * math.tanh(0.5)})
+        else:
+            edges.append([e[0], e[1], gain, -gain * math.tanh(0.5)])
+    data["edges"] = edges
+    return Genome.from_dict(data)
+
+
+def grid_cells(reference: Path, measured: Path, limit: int | None) -> list[Cell]:
+    with open(reference / "loop-genomes.jsonl") as f:
+        bases = {d["name"]: d["genome"] for d in (json.loads(line) for line in f if line.strip())}
+    cells, compiled = [], {}
+    per_shape: dict[str, int] = {}
+    for r in read_csv(measurement(measured, reference, GRID_FILE)):
+        short, _, gain = r["name"].rpartition("-arealoop-w")
+        if r["name"] not in compiled:
+            per_shape[short] = per_shape.get(short, 0) + 1
+            if limit is not None and per_shape[short] > limit:
+                continue
+            compiled[r["name"]] = compile_genome(grid_genome(bases[short + GRID_BASE],
+                                                             float(gain)))
+        cells.append(Cell("grid", r["shape"], r["terrain"], float(r["sigma"]),
+                          compiled[r["name"]], name=r["name"], reference=_floats(r, "vx")))
     return cells
 
 
@@ -392,6 +452,24 @@ def loop_figures(cells: list[Cell]) -> dict:
     return {"cells_are": "[somite, reference]", "fast_threshold": LOOP_FAST, **report}
 
 
+def grid_figures(cells: list[Cell]) -> dict:
+    report = {}
+    for shape in SHAPES:
+        mine = [c for c in cells if c.shape == shape]
+        if not mine:
+            continue
+        per = {}
+        for terrain in dict.fromkeys(c.terrain for c in mine):
+            ours, theirs = _vx([c for c in mine if c.terrain == terrain])
+            ours, theirs = _finite(ours), _finite(theirs)
+            per[terrain] = {"cells": len(theirs),
+                            "median": [float(np.median(ours)), float(np.median(theirs))],
+                            "faster_than_1": [int(np.sum(ours > LOOP_FAST)),
+                                              int(np.sum(theirs > LOOP_FAST))]}
+        report[shape] = {"per_terrain": per, "rank_all_cells": _rank(*_vx(mine))}
+    return {"figures_are": "[somite, reference]", **report}
+
+
 def _quantiles(values) -> dict:
     values = _finite(values)
     return {"median": float(np.median(values)), "q90": float(np.quantile(values, 0.9)),
@@ -471,9 +549,17 @@ def sine_figures(cells: list[Cell]) -> dict:
             a = float(np.mean([c.result["ar_h1"] for c in group]))
             b = float(np.mean([c.reference["ar_h1"] for c in group]))
             deformation[f"{freq:g}"] = {"somite": a, "reference": b, "ratio": _ratio(a, b)}
+        floor = [c for c in mine if math.isfinite(c.reference["vx_a0999"])]
+        floor_bands = {band: _rank([c.reference["vx"] for c in floor if lo <= c.freq <= hi],
+                                   [c.reference["vx_a0999"] for c in floor if lo <= c.freq <= hi])
+                       for band, (lo, hi) in BANDS.items()} if floor else None
         report[shape] = {
             "cells": len(mine),
             "rank_all": _rank(*_vx(mine)),
+            "reference_floor": None if not floor else {
+                "rank_all": _rank([c.reference["vx"] for c in floor],
+                                  [c.reference["vx_a0999"] for c in floor]),
+                "rank_per_band": floor_bands, "cells": len(floor)},
             "rank_target": f">= {SINE_RANK_TARGET}",
             "rank_per_band": bands,
             "best_ratio": best,
@@ -490,7 +576,7 @@ def sine_figures(cells: list[Cell]) -> dict:
 
 
 FIGURES = {"still": still_figures, "loops": loop_figures, "init": init_figures,
-           "sines": sine_figures}
+           "sines": sine_figures, "grid": grid_figures}
 
 
 # -- the command ----------------------------------------------------------------------------------
@@ -545,6 +631,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reference", type=Path, default=DEFAULT_REFERENCE,
                         help="the folder of the closed-loop reference data")
+    parser.add_argument("--measured", type=Path,
+                        help="read 2D-VSR-Sim's measurements (java-*.csv, loop-grid.csv) from "
+                        "here where it has them (default: --reference)")
     parser.add_argument("--only", default=",".join(SECTIONS),
                         help=f"comma-separated sections (default: {','.join(SECTIONS)})")
     parser.add_argument("--poses", type=int, default=100, help="constant poses per shape")
@@ -559,15 +648,24 @@ def main() -> None:
     unknown = set(sections) - set(SECTIONS)
     if unknown:
         parser.error(f"unknown sections {sorted(unknown)}; use {','.join(SECTIONS)}")
+    measured = args.measured or args.reference
+    skipped = {}
+    if "grid" in sections and not measurement(measured, args.reference, GRID_FILE).is_file():
+        # The shared reference has no grid: by default the section is left out, and says so.
+        if args.only != parser.get_default("only"):
+            parser.error(f"--only grid needs {measured / GRID_FILE} (--measured DIR)")
+        sections.remove("grid")
+        skipped["grid"] = f"skipped: no {GRID_FILE} in {measured} (--measured DIR)"
     if args.poses < 1 or (args.limit is not None and args.limit < 1):
         parser.error("--poses and --limit must be at least 1")
     options = parse_options(args.option)
     config = preset(PRESET, **options)
     started = time.perf_counter()
     build = {"still": lambda: still_cells(args.poses, args.seed),
-             "loops": lambda: loop_cells(args.reference, args.limit),
-             "init": lambda: init_cells(args.reference, args.limit),
-             "sines": lambda: sine_cells(args.reference, args.limit)}
+             "loops": lambda: loop_cells(args.reference, measured, args.limit),
+             "init": lambda: init_cells(args.reference, measured, args.limit),
+             "sines": lambda: sine_cells(args.reference, measured, args.limit),
+             "grid": lambda: grid_cells(args.reference, measured, args.limit)}
     cells = {s: build[s]() for s in SECTIONS if s in sections}
     batches = run_cells([c for group in cells.values() for c in group], config)
     out = {"source": source_state(), "preset": PRESET, "options": options,
@@ -577,6 +675,7 @@ def main() -> None:
            "limit": args.limit, "batches": batches}
     for section, group in cells.items():
         out[section] = FIGURES[section](group)
+    out.update(skipped)
     out["seconds"] = round(time.perf_counter() - started, 1)
     if args.cells:
         rows = [c.row() for group in cells.values() for c in group]

@@ -25,10 +25,16 @@ the worm and the biped with the paper's sensors are refused: the driver cannot b
 
     python benchmarks/transfer.py RUN [RUN ...] [--every 50] [--from 50]
                                   [--terrains flat,hilly-1-10-10000,...|validation]
-                                  [--vsr PATH] [--export PATH] [--threads 2] [--seed 0]
+                                  [--vsr PATH] [--dyn4j classes-dyn4j] [--export PATH]
+                                  [--threads 2] [--seed 0]
 
 ``--vsr`` (default: env ``VSR``) is a build of the driver (``build.sh``: classes-main/CL.class
-beside classes-hmsr/, classes-dyn4j/ and lib/); ``--export`` the export script (default
+beside classes-hmsr/, classes-dyn4j/ and lib/); ``--dyn4j`` names the folder of that build that
+holds dyn4j's classes, so that a variant of the engine built beside them runs instead:
+``classes-dyn4j-noccd`` is dyn4j with its continuous collision detection off
+(``benchmarks/reference/closed-loop/README.md`` says how to build it and why it matters: in
+2D-VSR-Sim that detection misfires against the terrain and throws blocks back);
+``--export`` the export script (default
 ``../shared/tools/closed-loop-2dvsrsim/export_genomes.py`` from the repository root). A ratio
 of speeds near zero is noise: look at the medians, and at ``somite_vx`` beside it.
 """
@@ -72,7 +78,12 @@ DRIVER_SHAPES = {"worm": "worm-6x2", "biped": "biped-4x3"}
 DRIVER_COLUMNS = ("sim", "name", "shape", "terrain", "sigma", "hidden", "vx", "x_first", "x_last",
                   "x_end", "y_end", "seconds")
 """The header CL.java writes in ``genomes`` mode."""
-CLASSPATH = ("classes-main", "classes-hmsr", "classes-dyn4j", "lib/*")
+DYN4J = "classes-dyn4j"
+"""The build's folder of dyn4j's classes (``--dyn4j``: a variant's folder beside it)."""
+
+
+def classpath(dyn4j: str) -> tuple[str, ...]:
+    return ("classes-main", "classes-hmsr", dyn4j, "lib/*")
 
 
 @dataclass
@@ -219,21 +230,25 @@ def median(values) -> float:
     return float(np.median(finite)) if finite else math.nan
 
 
-def find_java(vsr: str | None) -> tuple[str, str]:
-    """(java executable, class path) of a driver build, or a one-line error."""
+def find_java(vsr: str | None, dyn4j: str = DYN4J) -> tuple[str, str]:
+    """(java executable, class path) of a driver build with dyn4j's classes from the folder
+    ``dyn4j`` of it, or a one-line error."""
     if not vsr:
         raise bad("vsr", vsr, "give --vsr PATH or set VSR to a build of the 2D-VSR-Sim driver")
     folder = Path(vsr)
     if not folder.is_dir():
         raise bad("vsr", vsr, "no such folder (a build of the 2D-VSR-Sim driver: build.sh)")
-    for part in ("classes-main/CL.class", "classes-hmsr/it", "classes-dyn4j/org", "lib"):
+    for part in ("classes-main/CL.class", "classes-hmsr/it", f"{DYN4J}/org", "lib"):
         if not (folder / part).exists():
             raise bad("vsr", vsr, f"not a build of the 2D-VSR-Sim driver (no {part}; run "
                       "shared/tools/closed-loop-2dvsrsim/build.sh)")
+    if not dyn4j or Path(dyn4j).name != dyn4j or not (folder / dyn4j / "org").is_dir():
+        raise bad("dyn4j", dyn4j, f"not a folder of dyn4j's classes in {vsr} (a variant is "
+                  "built beside classes-dyn4j: benchmarks/reference/closed-loop/README.md)")
     java = shutil.which("java")
     if java is None:
         raise bad("java", "java", "not found on PATH (a Java 11+ runtime runs the driver)")
-    return java, os.pathsep.join(str(folder.resolve() / p) for p in CLASSPATH)
+    return java, os.pathsep.join(str(folder.resolve() / p) for p in classpath(dyn4j))
 
 
 def check_export(path: str) -> Path:
@@ -337,7 +352,8 @@ def _key(genome_data: dict) -> str:
 
 def transfer(paths: list[str], every: int = 50, start: int = 50,
              terrains: list[Terrain] | None = None, vsr: str | None = None,
-             export: str | Path = DEFAULT_EXPORT, threads: int = 2, seed: int = 0) -> dict:
+             export: str | Path = DEFAULT_EXPORT, threads: int = 2, seed: int = 0,
+             dyn4j: str = DYN4J) -> dict:
     """The whole check (see the module docstring); every bad input is a one-line error."""
     if isinstance(start, bool) or not isinstance(start, int) or start < 0:
         raise bad("from", start, "must be a whole number, 0 or more")
@@ -347,7 +363,7 @@ def transfer(paths: list[str], every: int = 50, start: int = 50,
     if not paths:
         raise bad("run", paths, "give at least one run directory")
     runs = [load_run(path, every) for path in paths]
-    java = find_java(vsr)
+    java = find_java(vsr, dyn4j)
     script = check_export(str(export))
     names: dict[str, str] = {}  # genome JSON -> driver name; a genome kept for many generations
     by_name: dict[str, dict] = {}  # runs once
@@ -367,7 +383,8 @@ def transfer(paths: list[str], every: int = 50, start: int = 50,
         "from": start,
         "seed": seed,
         "episode": {"duration": DRIVER_DURATION, "transient": DRIVER_TRANSIENT},
-        "driver": {"vsr": str(vsr), "preset": DRIVER_PRESET, "hidden": "sigmoid",
+        "driver": {"vsr": str(vsr), "dyn4j": dyn4j, "preset": DRIVER_PRESET,
+                   "hidden": "sigmoid",
                    "threads": threads, "episodes": len(cells), "genomes": len(by_name)},
         **report,
     }
@@ -392,6 +409,9 @@ def main(argv: list[str] | None = None) -> int:
                         "hilly-1-10-10000 ... 10004")
     parser.add_argument("--vsr", default=os.environ.get("VSR"),
                         help="the 2D-VSR-Sim driver's build (default: env VSR)")
+    parser.add_argument("--dyn4j", default=DYN4J, metavar="FOLDER",
+                        help=f"the build's folder of dyn4j's classes (default {DYN4J}; "
+                        "classes-dyn4j-noccd: without continuous collision detection)")
     parser.add_argument("--export", default=str(DEFAULT_EXPORT),
                         help="export_genomes.py (default: ../shared/tools/closed-loop-2dvsrsim/ "
                         "beside the repository)")
@@ -401,7 +421,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         out = transfer(args.runs, args.every, args.start, parse_terrains(args.terrains),
-                       args.vsr, args.export, args.threads, args.seed)
+                       args.vsr, args.export, args.threads, args.seed, args.dyn4j)
     except SomiteError as error:
         sys.stderr.write(f"{parser.prog}: error: {error}\n")
         return 2

@@ -1,4 +1,4 @@
-"""``benchmarks/closed_loop.py`` runs and prints the JSON of its four sections (at tiny sizes: no
+"""``benchmarks/closed_loop.py`` runs and prints the JSON of its sections (at tiny sizes: no
 timing is checked, and the figures are only checked to be numbers of the right kind)."""
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT.parent / "shared/reference/closed-loop"
+MEASURED = ROOT / "benchmarks/reference/closed-loop"
 pytestmark = pytest.mark.skipif(not (REFERENCE / "java-loops.csv").exists(),
                                 reason="the reference measurements are not beside the clone")
 SHAPES = ("worm-6x2", "biped-4x3")
@@ -49,6 +50,8 @@ def tiny(tmp_path_factory):
 def test_every_section_is_there(tiny):
     out, _ = tiny
     assert {"still", "loops", "init", "sines"} <= set(out)
+    # The shared reference has no loop grid: left out by default, and said so.
+    assert out["grid"].startswith("skipped: no loop-grid.csv")
     assert out["preset"] == "original-code"
     assert out["options"] == {"friction": 1.65} and out["config"]["friction"] == 1.65
     assert out["config"]["hidden_activation"] == "sigmoid"
@@ -130,3 +133,29 @@ def test_only_runs_the_sections_asked_for():
     assert "still" in out and not {"loops", "init", "sines"} & set(out)
     assert [b["robots"] for b in out["batches"]] == [4]
     assert out["still"]["worm-6x2"]["poses"] == 2
+
+
+def test_the_loop_grid_and_the_reference_floor():
+    out = run_script("--measured", str(MEASURED / "no-ccd"), "--only", "grid,sines",
+                     "--limit", "2")
+    for shape in SHAPES:
+        grid = out["grid"][shape]
+        assert set(grid["per_terrain"]) == {"flat", "hilly-1-10-10000", "hilly-1-10-10001"}
+        for f in grid["per_terrain"].values():
+            # Two gains a shape (--limit 2) at four noise levels.
+            assert f["cells"] == 2 * 4 and all(finite(v) for v in f["median"])
+            assert all(0 <= n <= f["cells"] for n in f["faster_than_1"])
+        assert rank(grid["rank_all_cells"])
+        floor = out["sines"][shape]["reference_floor"]
+        assert floor["cells"] == 2 and rank(floor["rank_all"])
+    assert sum(b["robots"] for b in out["batches"]) == 2 * 2 * 3 * 4 + 2 * 2
+
+
+def test_the_grid_needs_its_measurements():
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks/closed_loop.py"), "--only", "grid"],
+                          capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert done.returncode == 2 and "loop-grid.csv (--measured DIR)" in done.stderr
+    # stock/ has the grid but not the loops: those come from the shared reference.
+    out = run_script("--measured", str(MEASURED / "stock"), "--only", "grid,loops", "--limit", "1")
+    assert out["grid"]["worm-6x2"]["per_terrain"]["flat"]["cells"] == 4
+    assert len(out["loops"]["worm-6x2"]["cells"]) == 2

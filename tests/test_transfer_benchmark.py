@@ -172,6 +172,12 @@ def test_missing_driver_build(runs, tmp_path, capsys, monkeypatch):
     for part in ("classes-main/CL.class", "classes-hmsr/it", "classes-dyn4j/org", "lib"):
         (tmp_path / part).mkdir(parents=True)
     assert error_line(capsys, run, "--vsr", str(tmp_path)).startswith("java='java': not found")
+    for variant in ("classes-dyn4j-noccd", "../classes-dyn4j", ""):  # not in the build
+        message = error_line(capsys, run, "--vsr", str(tmp_path), "--dyn4j", variant)
+        assert message.startswith(f"dyn4j='{variant}'") and "dyn4j's classes" in message
+    (tmp_path / "classes-dyn4j-noccd/org").mkdir(parents=True)
+    message = error_line(capsys, run, "--vsr", str(tmp_path), "--dyn4j", "classes-dyn4j-noccd")
+    assert message.startswith("java='java': not found")
 
 
 def test_other_bad_options(runs, tmp_path, capsys):

@@ -19,7 +19,7 @@ demo: $(STAMP)
 # --dist loadfile: a file's tests run on one worker, so that module fixtures (a campaign and its
 # report, ~40 s each) are built once, not once per worker.
 test: $(STAMP)
-	@echo "running the test suite on every core (under 10 minutes on 2; the first minutes compile the kernels)"
+	@echo "running the test suite on every core (about 10 minutes on 2; the first minutes compile the kernels)"
 	$(BIN)/python -m pytest -q -n auto --dist loadfile
 
 bench: $(STAMP)

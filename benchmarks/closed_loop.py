@@ -41,7 +41,7 @@ shape's list (quick checks); ``--option`` sets SimConfig options on top of the p
 sections' own noise sigma still applies); ``--cells`` writes every somite cell to CSV.
 Single cells are chaotic in both simulators: look at ranks and rates.
 
-    python benchmarks/closed_loop.py [--only still,loops,init,sines] [--poses 100] [--seed 0]
+    python benchmarks/closed_loop.py [--only still,loops,init,sines,grid] [--poses 100] [--seed 0]
                                      [--limit K] [--option NAME=VALUE ...] [--cells PATH]
                                      [--reference DIR] [--measured DIR]
 """
@@ -671,7 +671,8 @@ def main() -> None:
     out = {"source": source_state(), "preset": PRESET, "options": options,
            "config": config.to_dict(),
            "noise_sigma": "per section, as in the reference (still, sines: 0.01, which the "
-                          "open-loop controllers do not read; loops: 0.01; init: 0.01 and 0)",
+                          "open-loop controllers do not read; loops: 0.01; init: 0.01 and 0; grid: "
+                          "each cell's own)",
            "limit": args.limit, "batches": batches}
     for section, group in cells.items():
         out[section] = FIGURES[section](group)

@@ -8,7 +8,9 @@ by a copy of ``sim.physics.step`` with the CPU's cycle counter read between its 
 replay must end in the kernel's state bit for bit (checked: a copy that falls behind
 ``physics.step`` fails here). What the replay does not cover (sensing, the controller, the
 diagnostics) is the episode's time less the physics'. Prints JSON: microseconds per robot and
-control step, and each part's share.
+control step, and each part's share; and, beside them, the CPU kernel's control step on the same
+batch (``somite.tasks.lanes``: the joints' velocity passes of 8 robots at once as vector lanes,
+the rest as here).
 
     python benchmarks/passes.py [--shape worm] [--robots 24] [--duration 10]
 """
@@ -189,6 +191,11 @@ def main() -> dict:
                 raise SystemExit(f"robot {b}: the timed replay left physics.step's path: "
                                  "update benchmarks/passes.py to physics.step")
     steps = args.robots * config.n_steps
+    kernel = np.inf
+    for _ in range(3):
+        t = time.perf_counter()
+        run(system, ctrl, config, seeds)
+        kernel = min(kernel, time.perf_counter() - t)
     us = 1e6 / per_second / steps
     names = (*PASSES, "rest lengths from the actuation")
     physics = float(spent.sum()) * us
@@ -203,6 +210,7 @@ def main() -> dict:
         "control_steps": config.n_steps,
         "substeps": int(params.substeps),
         "control_step_us": round(episode, 3),
+        "cpu_kernel_control_step_us": round(kernel * 1e6 / steps, 3),
         "physics_us": round(physics, 3),
         "us_per_control_step": parts,
         "share": {name: round(v / episode, 4) for name, v in parts.items()},

@@ -7,7 +7,10 @@
 - ``lanes``: the same, with the state stored robots-innermost ((P, 3, W) and (S, 10, W)), so
   that the W robots' values of one spring are adjacent, as SIMD lanes want them;
 - ``merged``: W robots as one robot of W x 216 springs, spring s of robot i its spring
-  s * W + i, run by the real ``solve_springs`` (what the CPU kernel does, ``somite.tasks.lanes``).
+  s * W + i, run by the real ``solve_springs`` (the CPU kernel's way before issue 25's lanes);
+- ``vectorised``: the ``lanes`` layout, run by ``somite.sim.joint_lanes.solve_springs`` (every
+  robot's values loaded before any is stored, so that LLVM's SLP vectoriser takes the W robots
+  as vector lanes: what the CPU kernel does now, W = ``joint_lanes.LANES``).
 
 Each way's result is checked bit for bit against ``per_robot`` (each robot's arithmetic is the
 same, in its order). ``packed_multiplies`` counts vector multiply instructions (``vmulpd``) in the
@@ -27,6 +30,7 @@ import numpy as np
 
 from somite._jit import njit
 from somite.sim.body import Body
+from somite.sim import joint_lanes
 from somite.sim.config import SimConfig, pack_params
 from somite.sim.physics import J_IMPULSE, J_MASS, solve_springs
 from somite.sim.robot import new_scratch, robot_view
@@ -111,6 +115,14 @@ def lanes(ends, work, vel, inv_mass, inv_inertia, passes):
                     v[b, 0, k] -= jx * imb
                     v[b, 1, k] -= jy * imb
                     v[b, 2, k] -= iib * (rbx * jy - rby * jx)
+
+
+@njit(_nrt=False)
+def vectorised(ends, work, vel, inv_mass, inv_inertia, passes):
+    # work (G, S, 10, LANES), vel (G, P, 3, LANES)
+    for g in range(vel.shape[0]):
+        for _ in range(passes):
+            joint_lanes.solve_springs(ends, work[g], vel[g], inv_mass, inv_inertia)
 
 
 def _packed(kernel) -> int:
@@ -208,8 +220,23 @@ def main() -> dict:
         per_robot(merged, st[0], st[1], 3)
         result["identical_to_per_robot"][f"merged_{width}"] = bool(
             np.array_equal(st[1].reshape(ROBOTS, n_points, 3), reference))
+    width = joint_lanes.LANES
+    groups = ROBOTS // width
+
+    def laned_v(a, columns):
+        return np.ascontiguousarray(
+            a.reshape(groups, width, a.shape[1], columns).transpose(0, 2, 3, 1))
+
+    def run_vectorised(st, n):
+        vectorised(ends, st[0], st[1], robot.inv_mass, robot.inv_inertia, n)
+    figures[f"vectorised_{width}"] = timed(run_vectorised,
+                                           lambda: (laned_v(work0, 10), laned_v(vel0, 3)))
+    vel = laned_v(vel0, 3)
+    vectorised(ends, laned_v(work0, 10), vel, robot.inv_mass, robot.inv_inertia, 3)
+    result["identical_to_per_robot"][f"vectorised_{width}"] = bool(
+        np.array_equal(vel.transpose(0, 3, 1, 2).reshape(ROBOTS, n_points, 3), reference))
     result["packed_multiplies"] = {"interleaved": _packed(interleaved),
-                                   "lanes": _packed(lanes)}
+                                   "lanes": _packed(lanes), "vectorised": _packed(vectorised)}
     return result
 
 

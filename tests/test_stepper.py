@@ -144,18 +144,16 @@ def test_the_work_arrays_follow_their_field_table():
     assert work_sizes(system, ctrl, params, 0)["V"] != work_sizes(system, ctrl, params, 1)["V"]
 
 
-def test_robots_advanced_in_groups_give_each_robots_own_numbers():
-    """The CPU kernel advances up to GROUP_SIZE robots of the same joint counts together
-    (somite.tasks.lanes); every group size leaves the trace of the per-robot path (the
-    stepper's), bit for bit, also when a robot of a group stops (a NaN start: non-finite at
-    the first step) and groups that differ in shape."""
+def _alone_and_grouped(bodies, sizes, nan_robot=None):
+    """Each robot's trace stepped alone (the stepper's per-robot path) and run_groups' trace
+    for each group size, with the groups it formed."""
     rng = np.random.default_rng(5)
-    bodies = [Body.build("worm")] * 5 + [Body.build("biped")] * 2
     graphs = [random_graph(body, 120, rng) for body in bodies]
     terrains = [hilly(1.0, 10.0, 30 + b) for b in range(len(bodies))]
     config = preset("paper", duration=0.5)
     system = compile_system(bodies, terrains, config.start_gap)
-    system.initial_pos[2, 0, 0] = np.nan
+    if nan_robot is not None:
+        system.initial_pos[nan_robot, 0, 0] = np.nan
     ctrl = compile_controllers(graphs, [b.shape.n_voxels for b in bodies])
     params, noise = pack_params(config), noise_table(config)
     seeds = np.arange(40, 40 + len(bodies), dtype=np.uint64)
@@ -166,11 +164,35 @@ def test_robots_advanced_in_groups_give_each_robots_own_numbers():
     for k in range(1, config.n_steps + 1):
         step_batch(k, system, ctrl, params, noise, seeds, alone, work, rays,
                    np.zeros((0, system.voxel_corners.shape[1])))
-    assert alone.status.tolist() == [0, 0, 1, 0, 0, 0, 0]
-    for size in (1, 3, GROUP_SIZE):
+    runs = []
+    for size in sizes:
         first, count = groups(system, size, threads=1)
-        assert count.max() == min(size, 5) and count.sum() == len(bodies)
         grouped = new_trace(len(bodies), config.n_steps, system, True)
         run_groups(system, ctrl, params, noise, seeds, config.n_steps, grouped,
                    new_work(system, ctrl, params), first, count)
+        runs.append((first, count, grouped))
+    return alone, runs
+
+
+def test_robots_advanced_in_groups_give_each_robots_own_numbers():
+    """The CPU kernel advances up to GROUP_SIZE robots of the same body together, their joints'
+    velocity passes as vector lanes (somite.sim.joint_lanes); every group size leaves the trace
+    of the per-robot path (the stepper's), bit for bit, also when a robot of a group stops (a
+    NaN start: non-finite at the first step) and groups that differ in shape."""
+    bodies = [Body.build("worm")] * 5 + [Body.build("biped")] * 2
+    alone, runs = _alone_and_grouped(bodies, (1, 3, GROUP_SIZE), nan_robot=2)
+    assert alone.status.tolist() == [0, 0, 1, 0, 0, 0, 0]
+    for size, (_, count, grouped) in zip((1, 3, GROUP_SIZE), runs):
+        assert count.max() == min(size, 5) and count.sum() == len(bodies)
         _assert_same(grouped, alone)
+
+
+def test_robots_of_other_bodies_with_the_same_counts_are_not_grouped():
+    """A row of three voxels and a column of three have as many blocks and joints, joined
+    differently: a group shares its first robot's joints, so they never share a group, and
+    each still gets its own numbers."""
+    row, column = Body.build("3x1"), Body.build("1x3")
+    bodies = [row, row, column, row, column, column]
+    alone, [(first, count, grouped)] = _alone_and_grouped(bodies, (GROUP_SIZE,))
+    assert first.tolist() == [0, 2, 3, 4] and count.tolist() == [2, 1, 1, 2]
+    _assert_same(grouped, alone)

@@ -2,10 +2,11 @@
 solved with sequential impulses, as dyn4j 3.3 (the engine under 2D-VSR-Sim) solves them.
 
 Every function here works on one robot's arrays and is called from the episode of
-:mod:`somite.tasks.episode`; the CPU kernel (:mod:`somite.tasks.lanes`) also runs the joint
-passes on a group of robots presented as one robot, their joints interleaved. A joint's
-arithmetic lives in one function (``spring_setup``, ``spring_solve``, ``rope_fix``, ...), which
-the passes over a robot's joints call in order.
+:mod:`somite.tasks.episode`; the CPU kernel (:mod:`somite.tasks.lanes`) also runs the position
+passes on a group of robots presented as one robot, their joints interleaved, and the joints'
+velocity passes on the group's robots as vector lanes (:mod:`somite.sim.joint_lanes`). A joint's
+arithmetic lives in one function (``spring_terms``, ``spring_impulse``, ``pushed``, ``rope_fix``,
+...), which the passes over a robot's joints, and over a group's, call in order.
 A robot's state is one rigid square block per voxel corner (four per voxel,
 docs/original-system.md section 1.2): ``pos`` (P, 3) holds each block's centre and angle, ``vel``
 (P, 3) its velocity and angular velocity.
@@ -113,16 +114,45 @@ def turn(n_points, pos, cos, sin):
         sin[p] = math.sin(pos[p, 2])
 
 
+@njit
+def rotated(ox, oy, c, s):
+    """Offset (ox, oy) in a body's frame, turned into the world's (c, s: the body's cosine and
+    sine)."""
+    return c * ox - s * oy, s * ox + c * oy
+
+
 @njit(inline="always")
 def turned(p, ox, oy, cos, sin):
     """Offset (ox, oy) in body p's frame, turned into the world's."""
-    return cos[p] * ox - sin[p] * oy, sin[p] * ox + cos[p] * oy
+    return rotated(ox, oy, cos[p], sin[p])
 
 
 @njit(inline="always")
 def world_point(p, ox, oy, pos, cos, sin):
     """World position of offset (ox, oy) of body p."""
     return (pos[p, 0] + cos[p] * ox - sin[p] * oy, pos[p, 1] + sin[p] * ox + cos[p] * oy)
+
+
+# The joints' arithmetic is in functions of values (``pushed``, ``relative``, ``spring_terms``,
+# ``spring_impulse``, ...), which the passes here call between their loads and stores, one robot
+# at a time, and :mod:`somite.sim.joint_lanes` calls for W robots at once: one definition, so
+# that both give the same numbers bit for bit. Their choices are written ``x if c else y`` over
+# values computed beforehand, so that the compiler can make them selects, not branches, and
+# vectorise them across robots.
+
+
+@njit
+def pushed(a0, a1, a2, b0, b1, b2, rax, ray, rbx, rby, jx, jy, ima, iia, imb, iib):
+    """States (velocity or position) of bodies a and b after impulse (jx, jy) on a at offset
+    ra and its opposite on b at rb (ima, iia: a's inverse mass and inertia)."""
+    return (a0 + jx * ima, a1 + jy * ima, a2 + iia * (rax * jy - ray * jx),
+            b0 - jx * imb, b1 - jy * imb, b2 - iib * (rbx * jy - rby * jx))
+
+
+@njit
+def relative(a0, a1, a2, b0, b1, b2, rax, ray, rbx, rby):
+    """Velocity of body a's point ra relative to body b's point rb."""
+    return a0 - a2 * ray - (b0 - b2 * rby), a1 + a2 * rax - (b1 + b2 * rbx)
 
 
 @njit(inline="always")
@@ -141,12 +171,10 @@ def push(vel, a, b, rax, ray, rbx, rby, jx, jy, inv_mass, inv_inertia):
 @njit(inline="always")
 def relative_velocity(vel, a, b, rax, ray, rbx, rby):
     """Velocity of body a's point ra relative to body b's point rb (b < 0: the ground)."""
-    vx = vel[a, 0] - vel[a, 2] * ray
-    vy = vel[a, 1] + vel[a, 2] * rax
     if b >= 0:
-        vx -= vel[b, 0] - vel[b, 2] * rby
-        vy -= vel[b, 1] + vel[b, 2] * rbx
-    return vx, vy
+        return relative(vel[a, 0], vel[a, 1], vel[a, 2], vel[b, 0], vel[b, 1], vel[b, 2], rax,
+                        ray, rbx, rby)
+    return vel[a, 0] - vel[a, 2] * ray, vel[a, 1] + vel[a, 2] * rax
 
 
 @njit(inline="always")
@@ -154,40 +182,74 @@ def unit(x, y):
     """(x, y) scaled to length 1, and its length; a vector shorter than LINEAR_SLOP has no
     direction (dyn4j's rule), so it gives (0, 0)."""
     length = math.sqrt(x * x + y * y)
-    if length < LINEAR_SLOP:
-        return 0.0, 0.0, length
-    return x / length, y / length, length
+    ux = x / length
+    uy = y / length
+    short = length < LINEAR_SLOP
+    return 0.0 if short else ux, 0.0 if short else uy, length
+
+
+@njit
+def spring_terms(pa0, pa1, pb0, pb1, rax, ray, rbx, rby, rest, ima, iia, imb, iib, dt, omega,
+                 damping_ratio):
+    """A spring's direction (nx, ny), effective mass, softness gamma and bias for this step,
+    from its ends' positions and anchor offsets (a damped spring as a soft constraint: its
+    stiffness and damping from the frequency and damping ratio and the effective mass along
+    it, as dyn4j's DistanceJoint)."""
+    nx, ny, length = unit(pa0 + rax - pb0 - rbx, pa1 + ray - pb1 - rby)
+    cra = rax * ny - ray * nx
+    crb = rbx * ny - rby * nx
+    w = ima + iia * cra * cra + imb + iib * crb * crb
+    inverse = 1.0 / w
+    mass = inverse if w > 0.0 else 0.0
+    stiffness = mass * omega * omega
+    damping = 2.0 * mass * damping_ratio * omega
+    gamma = dt * (damping + dt * stiffness)
+    inverse = 1.0 / gamma
+    gamma = inverse if gamma > 0.0 else 0.0
+    w += gamma
+    inverse = 1.0 / w
+    return (nx, ny, inverse if w > 0.0 else 0.0, gamma,
+            (length - rest) * dt * stiffness * gamma)
+
+
+@njit
+def spring_impulse(rax, ray, rbx, rby, nx, ny, mass, bias, gamma, impulse, a0, a1, a2, b0, b1,
+                   b2):
+    """One velocity pass's impulse of a spring on its bodies' velocities a0.. and b0.."""
+    vx, vy = relative(a0, a1, a2, b0, b1, b2, rax, ray, rbx, rby)
+    return -mass * (nx * vx + ny * vy + bias + gamma * impulse)
+
+
+@njit(inline="always")
+def push_pair(vel, a, b, rax, ray, rbx, rby, jx, jy, ima, iia, imb, iib):
+    """:func:`pushed` on the rows a and b of ``vel``."""
+    (vel[a, 0], vel[a, 1], vel[a, 2], vel[b, 0], vel[b, 1], vel[b, 2]) = pushed(
+        vel[a, 0], vel[a, 1], vel[a, 2], vel[b, 0], vel[b, 1], vel[b, 2], rax, ray, rbx, rby, jx,
+        jy, ima, iia, imb, iib)
 
 
 @njit(inline="always")
 def spring_setup(s, a, b, anchor, rest, work, pos, vel, cos, sin, inv_mass, inv_inertia, dt,
                  omega, damping_ratio):
-    """Set up spring s (ends a, b) for this step (a damped spring as a soft constraint: its
-    stiffness and damping from the frequency and damping ratio and the effective mass along
-    it, as dyn4j's DistanceJoint) and apply last step's impulse."""
+    """Set up spring s (ends a, b) for this step (:func:`spring_terms`) and apply last step's
+    impulse."""
+    ima, iia, imb, iib = inv_mass[a], inv_inertia[a], inv_mass[b], inv_inertia[b]
     rax, ray = turned(a, anchor[s, 0], anchor[s, 1], cos, sin)
     rbx, rby = turned(b, anchor[s, 2], anchor[s, 3], cos, sin)
-    nx, ny, length = unit(pos[a, 0] + rax - pos[b, 0] - rbx, pos[a, 1] + ray - pos[b, 1] - rby)
-    cra = rax * ny - ray * nx
-    crb = rbx * ny - rby * nx
-    w = inv_mass[a] + inv_inertia[a] * cra * cra + inv_mass[b] + inv_inertia[b] * crb * crb
-    mass = 1.0 / w if w > 0.0 else 0.0
-    stiffness = mass * omega * omega
-    damping = 2.0 * mass * damping_ratio * omega
-    gamma = dt * (damping + dt * stiffness)
-    gamma = 1.0 / gamma if gamma > 0.0 else 0.0
-    w += gamma
+    nx, ny, mass, gamma, bias = spring_terms(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], rax,
+                                             ray, rbx, rby, rest[s], ima, iia, imb, iib, dt,
+                                             omega, damping_ratio)
     work[s, J_RAX] = rax
     work[s, J_RAY] = ray
     work[s, J_RBX] = rbx
     work[s, J_RBY] = rby
     work[s, J_NX] = nx
     work[s, J_NY] = ny
-    work[s, J_MASS] = 1.0 / w if w > 0.0 else 0.0
+    work[s, J_MASS] = mass
     work[s, J_GAMMA] = gamma
-    work[s, J_BIAS] = (length - rest[s]) * dt * stiffness * gamma
+    work[s, J_BIAS] = bias
     j = work[s, J_IMPULSE]
-    push(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass, inv_inertia)
+    push_pair(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, ima, iia, imb, iib)
 
 
 @njit(inline="always")
@@ -197,13 +259,14 @@ def spring_solve(s, a, b, work, vel, inv_mass, inv_inertia):
     ray = work[s, J_RAY]
     rbx = work[s, J_RBX]
     rby = work[s, J_RBY]
-    vx, vy = relative_velocity(vel, a, b, rax, ray, rbx, rby)
     nx = work[s, J_NX]
     ny = work[s, J_NY]
-    j = -work[s, J_MASS] * (nx * vx + ny * vy + work[s, J_BIAS]
-                            + work[s, J_GAMMA] * work[s, J_IMPULSE])
+    j = spring_impulse(rax, ray, rbx, rby, nx, ny, work[s, J_MASS], work[s, J_BIAS],
+                       work[s, J_GAMMA], work[s, J_IMPULSE], vel[a, 0], vel[a, 1], vel[a, 2],
+                       vel[b, 0], vel[b, 1], vel[b, 2])
     work[s, J_IMPULSE] += j
-    push(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass, inv_inertia)
+    push_pair(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass[a], inv_inertia[a],
+              inv_mass[b], inv_inertia[b])
 
 
 @njit(inline="always")
@@ -225,6 +288,12 @@ def solve_springs(robot, scratch, vel):
                      robot.inv_inertia)
 
 
+@njit
+def rope_impulse(nx, ny, mass, a0, a1, b0, b1):
+    """One velocity pass's impulse of an active rope limit on its bodies' velocities."""
+    return -mass * (nx * (a0 - b0) + ny * (a1 - b1))
+
+
 @njit(inline="always")
 def rope_setup(r, a, b, work, pos, vel, inv_mass, inv_inertia):
     """Rope limit r between the centres of a voxel's adjacent blocks a, b: active while the
@@ -232,13 +301,13 @@ def rope_setup(r, a, b, work, pos, vel, inv_mass, inv_inertia):
     lower limit only; while active, the limit holds the distance in both directions."""
     nx, ny, length = unit(pos[a, 0] - pos[b, 0], pos[a, 1] - pos[b, 1])
     if length < BLOCK_SIDE:
-        w = inv_mass[a] + inv_mass[b]
         work[r, R_NX] = nx
         work[r, R_NY] = ny
-        work[r, R_MASS] = 1.0 / w
+        work[r, R_MASS] = 1.0 / (inv_mass[a] + inv_mass[b])
         work[r, R_ACTIVE] = 1.0
         j = work[r, R_IMPULSE]
-        push(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, inv_mass, inv_inertia)
+        push_pair(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, inv_mass[a], inv_inertia[a],
+                  inv_mass[b], inv_inertia[b])
     else:
         work[r, R_ACTIVE] = 0.0
         work[r, R_IMPULSE] = 0.0
@@ -250,9 +319,10 @@ def rope_solve(r, a, b, work, vel, inv_mass, inv_inertia):
         return
     nx = work[r, R_NX]
     ny = work[r, R_NY]
-    j = -work[r, R_MASS] * (nx * (vel[a, 0] - vel[b, 0]) + ny * (vel[a, 1] - vel[b, 1]))
+    j = rope_impulse(nx, ny, work[r, R_MASS], vel[a, 0], vel[a, 1], vel[b, 0], vel[b, 1])
     work[r, R_IMPULSE] += j
-    push(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, inv_mass, inv_inertia)
+    push_pair(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, inv_mass[a], inv_inertia[a],
+              inv_mass[b], inv_inertia[b])
 
 
 @njit(inline="always")
@@ -307,8 +377,8 @@ def solve33(a00, a01, a02, a11, a12, a22, bx, by, bz):
     c01 = a01 * a22 - a12 * a02
     c02 = a01 * a12 - a11 * a02
     det = a00 * c00 - a01 * c01 + a02 * c02
-    if det != 0.0:
-        det = 1.0 / det
+    inverse = 1.0 / det
+    det = inverse if det != 0.0 else det
     x = det * (bx * c00 - a01 * (by * a22 - a12 * bz) + a02 * (by * a12 - a11 * bz))
     y = det * (a00 * (by * a22 - bz * a12) - bx * c01 + a02 * (a01 * bz - by * a02))
     z = det * (a00 * (a11 * bz - a12 * by) - a01 * (a01 * bz - by * a02) + bx * c02)
@@ -322,14 +392,29 @@ def weld_matrix(ima, iia, imb, iib, rbx, rby):
             ima + imb + rbx * rbx * iib, rbx * iib, iia + iib)
 
 
+@njit
+def weld_pushed(a0, a1, a2, b0, b1, b2, rbx, rby, jx, jy, jz, ima, iia, imb, iib):
+    """States of bodies a and b after a weld's impulse (jx, jy, jz) (its anchor at a's
+    centre, rb from b's)."""
+    return (a0 + jx * ima, a1 + jy * ima, a2 + iia * jz,
+            b0 - jx * imb, b1 - jy * imb, b2 - iib * (rbx * jy - rby * jx + jz))
+
+
+@njit
+def weld_impulse(rbx, rby, ima, iia, imb, iib, a0, a1, a2, b0, b1, b2):
+    """One velocity pass's impulse (x, y, angle) of a weld on its bodies' velocities."""
+    k00, k01, k02, k11, k12, k22 = weld_matrix(ima, iia, imb, iib, rbx, rby)
+    vx, vy = relative(a0, a1, a2, b0, b1, b2, 0.0, 0.0, rbx, rby)
+    return solve33(k00, k01, k02, k11, k12, k22, -vx, -vy, -(a2 - b2))
+
+
 @njit(inline="always")
 def weld_push(state, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia):
-    state[a, 0] += jx * inv_mass[a]
-    state[a, 1] += jy * inv_mass[a]
-    state[a, 2] += inv_inertia[a] * jz
-    state[b, 0] -= jx * inv_mass[b]
-    state[b, 1] -= jy * inv_mass[b]
-    state[b, 2] -= inv_inertia[b] * (rbx * jy - rby * jx + jz)
+    """:func:`weld_pushed` on the rows a and b of ``state``."""
+    (state[a, 0], state[a, 1], state[a, 2], state[b, 0], state[b, 1], state[b, 2]) = \
+        weld_pushed(state[a, 0], state[a, 1], state[a, 2], state[b, 0], state[b, 1],
+                    state[b, 2], rbx, rby, jx, jy, jz, inv_mass[a], inv_inertia[a], inv_mass[b],
+                    inv_inertia[b])
 
 
 @njit(inline="always")
@@ -345,10 +430,9 @@ def weld_setup(q, a, b, anchor, work, vel, cos, sin, inv_mass, inv_inertia):
 def weld_solve(q, a, b, work, vel, inv_mass, inv_inertia):
     rbx = work[q, W_RBX]
     rby = work[q, W_RBY]
-    k00, k01, k02, k11, k12, k22 = weld_matrix(inv_mass[a], inv_inertia[a], inv_mass[b],
-                                               inv_inertia[b], rbx, rby)
-    vx, vy = relative_velocity(vel, a, b, 0.0, 0.0, rbx, rby)
-    jx, jy, jz = solve33(k00, k01, k02, k11, k12, k22, -vx, -vy, -(vel[a, 2] - vel[b, 2]))
+    jx, jy, jz = weld_impulse(rbx, rby, inv_mass[a], inv_inertia[a], inv_mass[b],
+                              inv_inertia[b], vel[a, 0], vel[a, 1], vel[a, 2], vel[b, 0],
+                              vel[b, 1], vel[b, 2])
     work[q, W_JX] += jx
     work[q, W_JY] += jy
     work[q, W_JZ] += jz

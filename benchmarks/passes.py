@@ -8,9 +8,12 @@ by a copy of ``sim.physics.step`` with the CPU's cycle counter read between its 
 replay must end in the kernel's state bit for bit (checked: a copy that falls behind
 ``physics.step`` fails here). What the replay does not cover (sensing, the controller, the
 diagnostics) is the episode's time less the physics'. Prints JSON: microseconds per robot and
-control step, and each part's share; and, beside them, the CPU kernel's control step on the same
-batch (``somite.tasks.lanes``: the joints' velocity passes of 8 robots at once as vector lanes,
-the rest as here).
+control step, and each part's share.
+
+The CPU kernel (``somite.tasks.lanes``) runs groups of robots, their joints' set-up and velocity
+passes as vector lanes: ``cpu_kernel`` times it whole on the same batch and replays each group's
+physics the same way, through a copy of ``lanes._step`` with the cycles of each part counted
+(checked bit for bit like the one above).
 
     python benchmarks/passes.py [--shape worm] [--robots 24] [--duration 10]
 """
@@ -36,7 +39,17 @@ from somite.sim.config import SimConfig, pack_params
 from somite.sim.sensors import lidar_rays, noise_table
 from somite.sim.system import compile_system
 from somite.sim.terrain import hilly
-from somite.tasks.episode import episode, robot_state, robot_work, start
+from somite.sim import joint_lanes as jl
+from somite.tasks.episode import (
+    before_physics,
+    episode,
+    new_work,
+    robot_state,
+    robot_work,
+    start,
+    work_row,
+)
+from somite.tasks.lanes import F_CONTACTS, F_DONE, F_ROPES, F_WELDS, _lane, _lanes, _merged, groups
 from somite.tasks.locomotion import compile_controllers, run
 
 PASSES = (
@@ -48,6 +61,12 @@ PASSES = (
 )
 REST_LENGTHS = len(PASSES)  # the rest lengths from the actuation, once a control step
 N_SLOTS = REST_LENGTHS + 1
+GROUP_PASSES = (
+    "gravity and damping, contacts: set-up", "into and out of the lanes",
+    "joints: set-up (lanes)", "joints: velocity passes (lanes)", "contacts: velocity passes",
+    "move and rotations", "position passes (contacts, ropes, welds)", "contacts: found",
+    "rotations and rest lengths",
+)
 
 
 @intrinsic
@@ -130,6 +149,119 @@ def _replay(system, ctrl, params, trace, actuations, b, spent):
     return work.pos.copy()
 
 
+@njit(_nrt=False)
+def _timed_group_step(system, ctrl, work, params, rays, joints, cos, sin, pos, lanes, first,
+                      count, flags, spent):
+    """``lanes._step`` for a group whose robots all run, part by part (``GROUP_PASSES``), the
+    cycles of each added to ``spent``."""
+    last = first + count
+    t = _cycles()
+    for b in range(first, last):
+        state = _lane(system, ctrl, work, rays, b)
+        ph.velocities(state.robot, state.work.body_vel, params)
+        ph.start_contacts(state.robot, state.scratch, state.work.body_pos, state.work.body_vel,
+                          params)
+    t = _lap(spent, 0, t)
+    for b in range(first, last):
+        w = _lane(system, ctrl, work, rays, b).work
+        jl.take(lanes, b - first, w.body_pos, w.body_vel, w.cos, w.sin)
+    t = _lap(spent, 1, t)
+    jl.start_joints(lanes, params)
+    t = _lap(spent, 2, t)
+    for _ in range(params.velocity_iterations):
+        jl.solve_joints(lanes)
+        t = _lap(spent, 3, t)
+        for b in range(first, last):
+            state = _lane(system, ctrl, work, rays, b)
+            ph.solve_contacts(state.robot, state.scratch, lanes.vel[:, :, b - first])
+        t = _lap(spent, 4, t)
+    for b in range(first, last):
+        jl.give_velocities(lanes, b - first, work.body_vel[b])
+    t = _lap(spent, 1, t)
+    for b in range(first, last):
+        state = _lane(system, ctrl, work, rays, b)
+        ph.positions(state.robot, state.scratch, state.work.body_pos, state.work.body_vel,
+                     params)
+        flags[b - first, F_DONE] = False
+    t = _lap(spent, 5, t)
+    for _ in range(params.position_iterations):
+        for b in range(first, last):
+            g = b - first
+            if flags[g, F_DONE]:
+                continue
+            state = _lane(system, ctrl, work, rays, b)
+            flags[g, F_CONTACTS] = ph.fix_contacts(state.robot, state.scratch,
+                                                   state.work.body_pos)
+            flags[g, F_ROPES] = flags[g, F_WELDS] = True
+        ends = joints.rope_ends
+        for m in range(joints.n_ropes):
+            g = m % count
+            if not flags[g, F_DONE] and not ph.rope_fix(ends[m, 0], ends[m, 1], pos,
+                                                        joints.inv_mass, joints.inv_inertia):
+                flags[g, F_ROPES] = False
+        ends = joints.weld_ends
+        for m in range(joints.n_welds):
+            g = m % count
+            if not flags[g, F_DONE] and not ph.weld_fix(
+                    m, ends[m, 0], ends[m, 1], joints.weld_anchor, pos, cos, sin,
+                    joints.inv_mass, joints.inv_inertia):
+                flags[g, F_WELDS] = False
+        going = 0
+        for g in range(count):
+            if not flags[g, F_DONE]:
+                if flags[g, F_CONTACTS] and flags[g, F_ROPES] and flags[g, F_WELDS]:
+                    flags[g, F_DONE] = True
+                else:
+                    going += 1
+        if going == 0:
+            break
+    t = _lap(spent, 6, t)
+    for b in range(first, last):
+        state = _lane(system, ctrl, work, rays, b)
+        ph.find_contacts(state.robot, state.ground, state.scratch, state.work.body_pos, params)
+    _lap(spent, 7, t)
+
+
+@njit(_nrt=False)
+def _replay_group_steps(system, ctrl, params, work, rays, actuations, first, count, joints,
+                        cos, sin, pos, lanes, flags, spent):
+    for k in range(1, actuations.shape[1]):
+        t = _cycles()
+        for b in range(first, first + count):
+            state = _lane(system, ctrl, work, rays, b)
+            for v in range(state.robot.n_voxels):
+                state.work.actuation[v] = actuations[b, k - 1, v]
+            before_physics(state.robot, state.work.actuation, params, lanes.rest[:, b - first])
+            ph.turn(state.robot.n_points, state.work.body_pos, state.scratch.cos,
+                    state.scratch.sin)
+        _lap(spent, len(GROUP_PASSES) - 1, t)
+        for _ in range(int(params.substeps)):
+            _timed_group_step(system, ctrl, work, params, rays, joints, cos, sin, pos, lanes,
+                              first, count, flags, spent)
+
+
+@njit
+def _replay_group(system, ctrl, params, trace, work, actuations, first, count, spent):
+    """The physics of robots ``first .. first + count - 1`` as the CPU kernel's group, under
+    ``actuations`` (B, n_steps + 1, V), timed part by part; their voxels' final corners (as
+    :func:`_replay`'s)."""
+    rays = lidar_rays(params)
+    for b in range(first, first + count):
+        start(b, system, params, trace, robot_state(system, b, params,
+                                                    work_row(work, b, system, ctrl), rays))
+    joints, cos, sin, pos = _merged(system, work, first, count)
+    _replay_group_steps(system, ctrl, params, work, rays, actuations, first, count, joints, cos,
+                        sin, pos, _lanes(system, work, first, count),
+                        np.zeros((count, 4), dtype=np.bool_), spent)
+    corners = np.full((count, work.pos.shape[1], 2), np.nan)
+    for b in range(first, first + count):
+        w = work_row(work, b, system, ctrl)
+        state = robot_state(system, b, params, w, rays)
+        ph.corner_state(state.robot, w.body_pos, w.body_vel, w.cos, w.sin, w.pos, w.vel)
+        corners[b - first, :w.pos.shape[0]] = w.pos
+    return corners
+
+
 @njit
 def _timed_episodes(system, ctrl, params, noise, seeds, n_steps, trace):
     """Each robot's whole episode, robot by robot as the CUDA kernel and the stepper run it
@@ -196,6 +328,20 @@ def main() -> dict:
         t = time.perf_counter()
         run(system, ctrl, config, seeds)
         kernel = min(kernel, time.perf_counter() - t)
+    grouped = np.zeros(len(GROUP_PASSES), dtype=np.uint64)
+    first, count = groups(system, threads=1)
+    for attempt in range(2):  # the first call compiles or loads
+        grouped[:] = 0
+        work = new_work(system, ctrl, params)
+        for f, c in zip(first, count, strict=True):
+            final = _replay_group(system, ctrl, params, trace, work, recorded.actuation, f, c,
+                                  grouped)
+            n_points = system.n_points[f]
+            if attempt and not np.array_equal(final[:, :n_points],
+                                              recorded.pos[f:f + c, -1, :n_points],
+                                              equal_nan=True):
+                raise SystemExit(f"group {f}: the timed replay left the CPU kernel's path: "
+                                 "update benchmarks/passes.py to somite.tasks.lanes._step")
     us = 1e6 / per_second / steps
     names = (*PASSES, "rest lengths from the actuation")
     physics = float(spent.sum()) * us
@@ -203,6 +349,11 @@ def main() -> dict:
     parts = {name: round(float(c) * us, 3) for name, c in zip(names, spent, strict=True)}
     parts["sensing, controller, diagnostics (the rest of the step)"] = round(
         episode - physics, 3)
+    kernel_us = kernel * 1e6 / steps
+    group_parts = {name: round(float(c) * us, 3)
+                   for name, c in zip(GROUP_PASSES, grouped, strict=True)}
+    group_parts["sensing, controller, diagnostics (the rest of the step)"] = round(
+        kernel_us - float(grouped.sum()) * us, 3)
     return {
         "benchmark": "cost split of a control step, 1 thread",
         "shape": args.shape,
@@ -210,10 +361,16 @@ def main() -> dict:
         "control_steps": config.n_steps,
         "substeps": int(params.substeps),
         "control_step_us": round(episode, 3),
-        "cpu_kernel_control_step_us": round(kernel * 1e6 / steps, 3),
         "physics_us": round(physics, 3),
         "us_per_control_step": parts,
         "share": {name: round(v / episode, 4) for name, v in parts.items()},
+        "cpu_kernel": {
+            "groups": count.tolist(),
+            "control_step_us": round(kernel_us, 3),
+            "physics_us": round(float(grouped.sum()) * us, 3),
+            "us_per_control_step": group_parts,
+            "share": {name: round(v / kernel_us, 4) for name, v in group_parts.items()},
+        },
     }
 
 

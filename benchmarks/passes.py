@@ -49,7 +49,7 @@ from somite.tasks.episode import (
     start,
     work_row,
 )
-from somite.tasks.lanes import F_CONTACTS, F_DONE, F_ROPES, F_WELDS, _lane, _lanes, _merged, groups
+from somite.tasks.lanes import F_DONE, _lane, _lanes, _merged, fix_positions, groups
 from somite.tasks.locomotion import compile_controllers, run
 
 PASSES = (
@@ -151,7 +151,7 @@ def _replay(system, ctrl, params, trace, actuations, b, spent):
 
 @njit(_nrt=False)
 def _timed_group_step(system, ctrl, work, params, rays, joints, cos, sin, pos, lanes, first,
-                      count, flags, spent):
+                      count, running, flags, spent):
     """``lanes._step`` for a group whose robots all run, part by part (``GROUP_PASSES``), the
     cycles of each added to ``spent``."""
     last = first + count
@@ -184,37 +184,8 @@ def _timed_group_step(system, ctrl, work, params, rays, joints, cos, sin, pos, l
                      params)
         flags[b - first, F_DONE] = False
     t = _lap(spent, 5, t)
-    for _ in range(params.position_iterations):
-        for b in range(first, last):
-            g = b - first
-            if flags[g, F_DONE]:
-                continue
-            state = _lane(system, ctrl, work, rays, b)
-            flags[g, F_CONTACTS] = ph.fix_contacts(state.robot, state.scratch,
-                                                   state.work.body_pos)
-            flags[g, F_ROPES] = flags[g, F_WELDS] = True
-        ends = joints.rope_ends
-        for m in range(joints.n_ropes):
-            g = m % count
-            if not flags[g, F_DONE] and not ph.rope_fix(ends[m, 0], ends[m, 1], pos,
-                                                        joints.inv_mass, joints.inv_inertia):
-                flags[g, F_ROPES] = False
-        ends = joints.weld_ends
-        for m in range(joints.n_welds):
-            g = m % count
-            if not flags[g, F_DONE] and not ph.weld_fix(
-                    m, ends[m, 0], ends[m, 1], joints.weld_anchor, pos, cos, sin,
-                    joints.inv_mass, joints.inv_inertia):
-                flags[g, F_WELDS] = False
-        going = 0
-        for g in range(count):
-            if not flags[g, F_DONE]:
-                if flags[g, F_CONTACTS] and flags[g, F_ROPES] and flags[g, F_WELDS]:
-                    flags[g, F_DONE] = True
-                else:
-                    going += 1
-        if going == 0:
-            break
+    fix_positions(system, ctrl, work, params, rays, joints, cos, sin, pos, first, running,
+                  count, count, flags)
     t = _lap(spent, 6, t)
     for b in range(first, last):
         state = _lane(system, ctrl, work, rays, b)
@@ -224,7 +195,7 @@ def _timed_group_step(system, ctrl, work, params, rays, joints, cos, sin, pos, l
 
 @njit(_nrt=False)
 def _replay_group_steps(system, ctrl, params, work, rays, actuations, first, count, joints,
-                        cos, sin, pos, lanes, flags, spent):
+                        cos, sin, pos, lanes, running, flags, spent):
     for k in range(1, actuations.shape[1]):
         t = _cycles()
         for b in range(first, first + count):
@@ -237,7 +208,7 @@ def _replay_group_steps(system, ctrl, params, work, rays, actuations, first, cou
         _lap(spent, len(GROUP_PASSES) - 1, t)
         for _ in range(int(params.substeps)):
             _timed_group_step(system, ctrl, work, params, rays, joints, cos, sin, pos, lanes,
-                              first, count, flags, spent)
+                              first, count, running, flags, spent)
 
 
 @njit
@@ -252,7 +223,8 @@ def _replay_group(system, ctrl, params, trace, work, actuations, first, count, s
     joints, cos, sin, pos = _merged(system, work, first, count)
     _replay_group_steps(system, ctrl, params, work, rays, actuations, first, count, joints, cos,
                         sin, pos, _lanes(system, work, first, count),
-                        np.zeros((count, 4), dtype=np.bool_), spent)
+                        np.arange(first, first + count), np.zeros((count, 4), dtype=np.bool_),
+                        spent)
     corners = np.full((count, work.pos.shape[1], 2), np.nan)
     for b in range(first, first + count):
         w = work_row(work, b, system, ctrl)

@@ -144,34 +144,11 @@ def _lanes(system, work, first, count):
 
 
 @njit(inline="always")
-def _step(system, ctrl, work, params, rays, joints, cos, sin, pos, lanes, first, running, n,
-          count, flags):
-    """:func:`somite.sim.physics.step` for each robot of ``running[:n]`` (the robots still
-    running of the group of ``count`` from ``first``), pass by pass: the joints' velocity
-    passes over all the group's robots at once in ``lanes``, their position passes in the
-    merged body of :func:`_merged` (a robot that stopped keeps its own bodies, which no other
-    robot's joint touches). Robot b's lane and ``flags``' row are b - first."""
-    for i in range(n):
-        state = _lane(system, ctrl, work, rays, running[i])
-        w = state.work
-        ph.velocities(state.robot, w.body_vel, params)
-        ph.start_contacts(state.robot, state.scratch, w.body_pos, w.body_vel, params)
-        jl.take(lanes, running[i] - first, w.body_pos, w.body_vel, w.cos, w.sin)
-    jl.start_joints(lanes, params)
-    for _ in range(params.velocity_iterations):
-        jl.solve_joints(lanes)
-        for i in range(n):
-            state = _lane(system, ctrl, work, rays, running[i])
-            ph.solve_contacts(state.robot, state.scratch, lanes.vel[:, :, running[i] - first])
-    for i in range(n):
-        jl.give_velocities(lanes, running[i] - first, work.body_vel[running[i]])
-    for i in range(count):
-        flags[i, F_DONE] = True
-    for i in range(n):
-        state = _lane(system, ctrl, work, rays, running[i])
-        ph.positions(state.robot, state.scratch, state.work.body_pos, state.work.body_vel,
-                     params)
-        flags[running[i] - first, F_DONE] = False
+def fix_positions(system, ctrl, work, params, rays, joints, cos, sin, pos, first, running, n,
+                  count, flags):
+    """The position passes of the robots ``running[:n]`` (their contacts robot by robot, the
+    rope limits and welds of the merged body of :func:`_merged`), until each robot's hold or
+    ``params.position_iterations`` passes; a robot's ``flags`` row starts False at F_DONE."""
     for _ in range(params.position_iterations):
         for i in range(n):
             g = running[i] - first
@@ -207,6 +184,39 @@ def _step(system, ctrl, work, params, rays, joints, cos, sin, pos, lanes, first,
                     going += 1
         if going == 0:
             break
+
+
+@njit(inline="always")
+def _step(system, ctrl, work, params, rays, joints, cos, sin, pos, lanes, first, running, n,
+          count, flags):
+    """:func:`somite.sim.physics.step` for each robot of ``running[:n]`` (the robots still
+    running of the group of ``count`` from ``first``), pass by pass: the joints' velocity
+    passes over all the group's robots at once in ``lanes``, their position passes in the
+    merged body of :func:`_merged` (a robot that stopped keeps its own bodies, which no other
+    robot's joint touches). Robot b's lane and ``flags``' row are b - first."""
+    for i in range(n):
+        state = _lane(system, ctrl, work, rays, running[i])
+        w = state.work
+        ph.velocities(state.robot, w.body_vel, params)
+        ph.start_contacts(state.robot, state.scratch, w.body_pos, w.body_vel, params)
+        jl.take(lanes, running[i] - first, w.body_pos, w.body_vel, w.cos, w.sin)
+    jl.start_joints(lanes, params)
+    for _ in range(params.velocity_iterations):
+        jl.solve_joints(lanes)
+        for i in range(n):
+            state = _lane(system, ctrl, work, rays, running[i])
+            ph.solve_contacts(state.robot, state.scratch, lanes.vel[:, :, running[i] - first])
+    for i in range(n):
+        jl.give_velocities(lanes, running[i] - first, work.body_vel[running[i]])
+    for i in range(count):
+        flags[i, F_DONE] = True
+    for i in range(n):
+        state = _lane(system, ctrl, work, rays, running[i])
+        ph.positions(state.robot, state.scratch, state.work.body_pos, state.work.body_vel,
+                     params)
+        flags[running[i] - first, F_DONE] = False
+    fix_positions(system, ctrl, work, params, rays, joints, cos, sin, pos, first, running, n,
+                  count, flags)
     for i in range(n):
         state = _lane(system, ctrl, work, rays, running[i])
         ph.find_contacts(state.robot, state.ground, state.scratch, state.work.body_pos, params)

@@ -37,8 +37,9 @@ _COLUMNS = [name for name in dir(physics) if name[:2] in ("J_", "R_", "W_")]
 
 def _generated(name: str, args: str, joint: list[str], load: list[str], compute: list[str],
                store: list[str]):
-    """Source of a pass over joints ``m`` of ``ends``: ``joint`` once a joint, then each line
-    of ``load``, ``compute`` and ``store`` for every lane in turn."""
+    """The compiled pass ``name(args)`` over joints ``m`` of ``ends``, from generated source:
+    ``joint`` once a joint, then each line of ``load``, ``compute`` and ``store`` for every
+    lane in turn."""
     lines = [f"def {name}({args}):", "    for m in range(ends.shape[0]):",
              "        a = ends[m, 0]", "        b = ends[m, 1]"]
     lines += ["        " + line for line in joint]

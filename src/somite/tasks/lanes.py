@@ -147,8 +147,9 @@ def _lanes(system, work, first, count):
 def fix_positions(system, ctrl, work, params, rays, joints, cos, sin, pos, first, running, n,
                   count, flags):
     """The position passes of the robots ``running[:n]`` (their contacts robot by robot, the
-    rope limits and welds of the merged body of :func:`_merged`), until each robot's hold or
-    ``params.position_iterations`` passes; a robot's ``flags`` row starts False at F_DONE."""
+    rope limits and welds of the merged body of :func:`_merged`), until each robot's contacts
+    and joints hold or ``params.position_iterations`` passes are done; a running robot's
+    ``flags`` row starts False at F_DONE."""
     for _ in range(params.position_iterations):
         for i in range(n):
             g = running[i] - first

@@ -9,7 +9,8 @@ turned on (unless that variable is set): it is what takes the joint passes of se
 (:mod:`somite.sim.joint_lanes`) as vector instructions, 2.8x faster than the same arithmetic
 scalar. It never reorders floating-point arithmetic without fastmath, so no result changes.
 It applies to everything Numba compiles in the process; set ``NUMBA_SLP_VECTORIZE=0`` to keep
-Numba's default (somite then runs slower, with the same numbers).
+Numba's default (somite then runs slower, with the same numbers). Numba's cache does not record
+the setting: kernels compiled under one are loaded under the other until the cache is deleted.
 """
 
 import functools

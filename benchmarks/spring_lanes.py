@@ -119,7 +119,6 @@ def lanes(ends, work, vel, inv_mass, inv_inertia, passes):
 
 @njit(_nrt=False)
 def vectorised(ends, work, vel, inv_mass, inv_inertia, passes):
-    # work (G, S, 10, LANES), vel (G, P, 3, LANES)
     for g in range(vel.shape[0]):
         for _ in range(passes):
             joint_lanes.solve_springs(ends, work[g], vel[g], inv_mass, inv_inertia)
@@ -180,21 +179,25 @@ def main() -> dict:
         interleaved(ends, work0.copy(), vel, robot.inv_mass, robot.inv_inertia, 3, width)
         result["identical_to_per_robot"][f"interleaved_{width}"] = bool(
             np.array_equal(vel, reference))
-    for width in (4, 8, 16):
-        groups = ROBOTS // width
+    # Both kernels take the state robots innermost: work (G, S, 10, W), vel (G, P, 3, W).
+    for name, kernel, widths in (("lanes", lanes, (4, 8, 16)),
+                                 ("vectorised", vectorised, (joint_lanes.LANES,))):
+        for width in widths:
+            groups = ROBOTS // width
 
-        def laned(a, columns, width=width, groups=groups):
-            return np.ascontiguousarray(
-                a.reshape(groups, width, a.shape[1], columns).transpose(0, 2, 3, 1))
+            def laned(a, columns, width=width, groups=groups):
+                return np.ascontiguousarray(
+                    a.reshape(groups, width, a.shape[1], columns).transpose(0, 2, 3, 1))
 
-        def run_lanes(st, n):
-            lanes(ends, st[0], st[1], robot.inv_mass, robot.inv_inertia, n)
-        figures[f"lanes_{width}"] = timed(run_lanes, lambda: (laned(work0, 10), laned(vel0, 3)))
-        vel = laned(vel0, 3)
-        lanes(ends, laned(work0, 10), vel, robot.inv_mass, robot.inv_inertia, 3)
-        back = vel.transpose(0, 3, 1, 2).reshape(ROBOTS, n_points, 3)
-        result["identical_to_per_robot"][f"lanes_{width}"] = bool(
-            np.array_equal(back, reference))
+            def run_laned(st, n, kernel=kernel):
+                kernel(ends, st[0], st[1], robot.inv_mass, robot.inv_inertia, n)
+            figures[f"{name}_{width}"] = timed(run_laned,
+                                               lambda: (laned(work0, 10), laned(vel0, 3)))
+            vel = laned(vel0, 3)
+            kernel(ends, laned(work0, 10), vel, robot.inv_mass, robot.inv_inertia, 3)
+            back = vel.transpose(0, 3, 1, 2).reshape(ROBOTS, n_points, 3)
+            result["identical_to_per_robot"][f"{name}_{width}"] = bool(
+                np.array_equal(back, reference))
     for width in (2, 4, 8, 16):
         groups = ROBOTS // width
         ends_m = np.empty((width * n_springs, 2), dtype=robot.ends.dtype)
@@ -220,21 +223,6 @@ def main() -> dict:
         per_robot(merged, st[0], st[1], 3)
         result["identical_to_per_robot"][f"merged_{width}"] = bool(
             np.array_equal(st[1].reshape(ROBOTS, n_points, 3), reference))
-    width = joint_lanes.LANES
-    groups = ROBOTS // width
-
-    def laned_v(a, columns):
-        return np.ascontiguousarray(
-            a.reshape(groups, width, a.shape[1], columns).transpose(0, 2, 3, 1))
-
-    def run_vectorised(st, n):
-        vectorised(ends, st[0], st[1], robot.inv_mass, robot.inv_inertia, n)
-    figures[f"vectorised_{width}"] = timed(run_vectorised,
-                                           lambda: (laned_v(work0, 10), laned_v(vel0, 3)))
-    vel = laned_v(vel0, 3)
-    vectorised(ends, laned_v(work0, 10), vel, robot.inv_mass, robot.inv_inertia, 3)
-    result["identical_to_per_robot"][f"vectorised_{width}"] = bool(
-        np.array_equal(vel.transpose(0, 3, 1, 2).reshape(ROBOTS, n_points, 3), reference))
     result["packed_multiplies"] = {"interleaved": _packed(interleaved),
                                    "lanes": _packed(lanes), "vectorised": _packed(vectorised)}
     return result

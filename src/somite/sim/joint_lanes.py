@@ -25,28 +25,39 @@ import numpy as np
 
 from .._jit import njit
 from . import physics
+from .trig import sincos
 
 LANES = 8
 """Robots a group advances together (`somite bench`, 96 worms, 2 threads, one sitting: 4 lanes
 114k-117k robot-control-steps a second, 8 lanes 128k-136k, 16 lanes 122k-128k)."""
 
+# Columns of a group's flags (LANES, 4), a row a lane: its robot's position passes are over
+# (or it holds no running robot), and what this pass found of its contacts, ropes, welds.
+DONE, CONTACTS_HELD, ROPES_HELD, WELDS_HELD = range(4)
+
 _LANE_NAMES = ("rotated", "spring_terms", "spring_impulse", "pushed", "unit", "rope_impulse",
-               "weld_pushed", "weld_impulse", "BLOCK_SIDE")
+               "weld_pushed", "weld_impulse", "BLOCK_SIDE", "moved", "rope_fixed", "weld_fixed")
 _COLUMNS = [name for name in dir(physics) if name[:2] in ("J_", "R_", "W_")]
 
 
 def _generated(name: str, args: str, joint: list[str], load: list[str], compute: list[str],
-               store: list[str]):
-    """The compiled pass ``name(args)`` over joints ``m`` of ``ends``, from generated source:
-    ``joint`` once a joint, then each line of ``load``, ``compute`` and ``store`` for every
-    lane in turn."""
-    lines = [f"def {name}({args}):", "    for m in range(ends.shape[0]):",
-             "        a = ends[m, 0]", "        b = ends[m, 1]"]
+               store: list[str], before: list[str] = (), after: list[str] = (),
+               loop: tuple[str, ...] = ("for m in range(ends.shape[0]):", "a = ends[m, 0]",
+                                        "b = ends[m, 1]")):
+    """The compiled pass ``name(args)`` from generated source: each line of ``before`` for
+    every lane, then for each joint m of ``ends`` (or each item of another ``loop``): ``joint``
+    once, then each line of ``load``, ``compute`` and ``store`` for every lane in turn; then
+    ``after`` for every lane."""
+    lines = [f"def {name}({args}):"]
+    lines += ["    " + line.format(l=lane) for line in before for lane in range(LANES)]
+    lines += ["    " + loop[0]] + ["        " + line for line in loop[1:]]
     lines += ["        " + line for line in joint]
     for part in (load, compute, store):
         for line in part:
             lines += ["        " + line.format(l=lane) for lane in range(LANES)]
+    lines += ["    " + line.format(l=lane) for line in after for lane in range(LANES)]
     namespace = {name: getattr(physics, name) for name in (*_LANE_NAMES, *_COLUMNS)}
+    namespace.update(sincos=sincos, DONE=DONE, ROPES_HELD=ROPES_HELD, WELDS_HELD=WELDS_HELD)
     namespace["__name__"] = __name__
     exec(compile("\n".join(lines), __file__, "exec"), namespace)
     # Called, not inlined: a pass is long enough that a call costs nothing, and each is
@@ -162,6 +173,68 @@ solve_welds = _generated(
 """One velocity pass over the welds (``physics.weld_solve``)."""
 
 
+# Position passes (after the move): a lane whose ``flags`` row says DONE keeps its bodies
+# where they are.
+_POSITIONS = ["pa0_{l} = pa[0, {l}]", "pa1_{l} = pa[1, {l}]", "pa2_{l} = pa[2, {l}]",
+              "pb0_{l} = pb[0, {l}]", "pb1_{l} = pb[1, {l}]", "pb2_{l} = pb[2, {l}]"]
+_OLD_POSITIONS = "pa0_{l}, pa1_{l}, pa2_{l}, pb0_{l}, pb1_{l}, pb2_{l}"
+_STORE_MOVED = ["pa[0, {l}] = n0_{l} if move_{l} else pa0_{l}",
+                "pa[1, {l}] = n1_{l} if move_{l} else pa1_{l}",
+                "pa[2, {l}] = n2_{l} if move_{l} else pa2_{l}",
+                "pb[0, {l}] = n3_{l} if move_{l} else pb0_{l}",
+                "pb[1, {l}] = n4_{l} if move_{l} else pb1_{l}",
+                "pb[2, {l}] = n5_{l} if move_{l} else pb2_{l}"]
+_BUSY = ["busy_{l} = not flags[{l}, DONE]", "held_{l} = True"]
+
+move = _generated(
+    "move", "pos, vel, cos, sin, dt", ["q = pos[p]", "v = vel[p]"],
+    ["p0_{l} = q[0, {l}]", "p1_{l} = q[1, {l}]", "p2_{l} = q[2, {l}]", "v0_{l} = v[0, {l}]",
+     "v1_{l} = v[1, {l}]", "v2_{l} = v[2, {l}]"],
+    ["p0_{l}, p1_{l}, p2_{l}, v0_{l}, v1_{l}, v2_{l} = moved(p0_{l}, p1_{l}, p2_{l}, v0_{l}, "
+     "v1_{l}, v2_{l}, dt)", "c_{l}, s_{l} = sincos(p2_{l})"],
+    ["q[0, {l}] = p0_{l}", "q[1, {l}] = p1_{l}", "q[2, {l}] = p2_{l}", "v[0, {l}] = v0_{l}",
+     "v[1, {l}] = v1_{l}", "v[2, {l}] = v2_{l}", "cos[p, {l}] = c_{l}", "sin[p, {l}] = s_{l}"],
+    loop=("for p in range(pos.shape[0]):",))
+"""Every lane's bodies moved with their velocities and turned (``physics.positions``)."""
+
+fix_ropes = _generated(
+    "fix_ropes", "ends, pos, inv_mass, inv_inertia, flags",
+    ["ima = inv_mass[a]", "iia = inv_inertia[a]", "imb = inv_mass[b]", "iib = inv_inertia[b]",
+     "pa = pos[a]", "pb = pos[b]"],
+    _POSITIONS,
+    ["jx_{l}, jy_{l}, slack_{l}, ok_{l} = rope_fixed(pa0_{l}, pa1_{l}, pb0_{l}, pb1_{l}, ima, "
+     "imb)",
+     "move_{l} = busy_{l} & (not slack_{l})",
+     "n0_{l}, n1_{l}, n2_{l}, n3_{l}, n4_{l}, n5_{l} = pushed(" + _OLD_POSITIONS
+     + ", 0.0, 0.0, 0.0, 0.0, jx_{l}, jy_{l}, ima, iia, imb, iib)",
+     "held_{l} = held_{l} & ok_{l}"],
+    _STORE_MOVED, before=_BUSY, after=["flags[{l}, ROPES_HELD] = held_{l}"])
+"""One position pass over the rope limits of the busy lanes (``physics.rope_fix``);
+``flags[l, ROPES_HELD]``: whether lane l's all hold."""
+
+fix_welds = _generated(
+    "fix_welds", "ends, anchor, pos, cos, sin, inv_mass, inv_inertia, flags",
+    ["ima = inv_mass[a]", "iia = inv_inertia[a]", "imb = inv_mass[b]", "iib = inv_inertia[b]",
+     "pa = pos[a]", "pb = pos[b]", "ca = cos[a]", "sa = sin[a]", "cb = cos[b]", "sb = sin[b]",
+     "obx = anchor[m, 0]", "oby = anchor[m, 1]"],
+    _POSITIONS + ["ca_{l} = ca[{l}]", "sa_{l} = sa[{l}]", "cb_{l} = cb[{l}]",
+                  "sb_{l} = sb[{l}]"],
+    ["move_{l} = busy_{l}",
+     "rbx_{l}, rby_{l} = rotated(obx, oby, cb_{l}, sb_{l})",
+     "jx_{l}, jy_{l}, jz_{l}, ok_{l} = weld_fixed(" + _OLD_POSITIONS + ", rbx_{l}, rby_{l}, "
+     "ima, iia, imb, iib)",
+     "n0_{l}, n1_{l}, n2_{l}, n3_{l}, n4_{l}, n5_{l} = weld_pushed(" + _OLD_POSITIONS
+     + ", rbx_{l}, rby_{l}, jx_{l}, jy_{l}, jz_{l}, ima, iia, imb, iib)",
+     "nca_{l}, nsa_{l} = sincos(n2_{l})", "ncb_{l}, nsb_{l} = sincos(n5_{l})",
+     "held_{l} = held_{l} & ok_{l}"],
+    _STORE_MOVED + ["ca[{l}] = nca_{l} if busy_{l} else ca_{l}",
+                    "sa[{l}] = nsa_{l} if busy_{l} else sa_{l}",
+                    "cb[{l}] = ncb_{l} if busy_{l} else cb_{l}",
+                    "sb[{l}] = nsb_{l} if busy_{l} else sb_{l}"],
+    before=_BUSY, after=["flags[{l}, WELDS_HELD] = held_{l}"])
+"""One position pass over the welds of the busy lanes (``physics.weld_fix``);
+``flags[l, WELDS_HELD]``: whether lane l's all hold."""
+
 class Lanes(NamedTuple):
     """A group's joints (its first robot's: every robot of a group has the same body) and
     its robots' state, robots innermost (lane g: the group's robot g)."""
@@ -195,11 +268,14 @@ def take(lanes, g, pos, vel, cos, sin):
 
 
 @njit(inline="always")
-def give_velocities(lanes, g, vel):
-    """Lane g's velocities back to robot g's ``vel`` (P, 3)."""
-    for p in range(lanes.vel.shape[0]):
+def give(lanes, g, pos, vel, cos, sin):
+    """Lane g's bodies back to robot g's ``pos``, ``vel`` (P, 3), ``cos``, ``sin``."""
+    for p in range(lanes.pos.shape[0]):
         for c in range(3):
+            pos[p, c] = lanes.pos[p, c, g]
             vel[p, c] = lanes.vel[p, c, g]
+        cos[p] = lanes.cos[p, g]
+        sin[p] = lanes.sin[p, g]
 
 
 @njit(inline="always")
@@ -213,6 +289,14 @@ def start_joints(lanes, params):
                 lanes.inv_inertia)
     start_welds(lanes.weld_ends, lanes.weld_anchor, lanes.weld, lanes.vel, lanes.cos,
                 lanes.sin, lanes.inv_mass, lanes.inv_inertia)
+
+
+@njit(inline="always")
+def fix_joints(lanes, flags):
+    """One position pass over the rope limits, then the welds, of every busy lane."""
+    fix_ropes(lanes.rope_ends, lanes.pos, lanes.inv_mass, lanes.inv_inertia, flags)
+    fix_welds(lanes.weld_ends, lanes.weld_anchor, lanes.pos, lanes.cos, lanes.sin,
+              lanes.inv_mass, lanes.inv_inertia, flags)
 
 
 @njit(inline="always")

@@ -2,10 +2,10 @@
 solved with sequential impulses, as dyn4j 3.3 (the engine under 2D-VSR-Sim) solves them.
 
 Every function here works on one robot's arrays and is called from the episode of
-:mod:`somite.tasks.episode`; the CPU kernel (:mod:`somite.tasks.lanes`) also runs the position
-passes on a group of robots presented as one robot, their joints interleaved, and the joints'
-velocity passes on the group's robots as vector lanes (:mod:`somite.sim.joint_lanes`). A joint's
-arithmetic lives in one function (``spring_terms``, ``spring_impulse``, ``pushed``, ``rope_fix``,
+:mod:`somite.tasks.episode`; the CPU kernel (:mod:`somite.tasks.lanes`) runs the joints' passes
+and the move on a group's robots as vector lanes (:mod:`somite.sim.joint_lanes`) and the
+contacts' passes on each robot's lane. A joint's arithmetic lives in one function of values
+(``spring_terms``, ``spring_impulse``, ``pushed``, ``rope_fixed``, ``weld_fixed``, ``moved``,
 ...), which the passes over a robot's joints, and over a group's, call in order.
 A robot's state is one rigid square block per voxel corner (four per voxel,
 docs/original-system.md section 1.2): ``pos`` (P, 3) holds each block's centre and angle, ``vel``
@@ -97,14 +97,19 @@ def set_rest_lengths(n_springs, kind, owner, actuation, contract, expand, rest):
     """``rest``: the rest length of each spring for its voxel's ``actuation`` (V,): from its
     group's rest length towards its length in a voxel of side ``contract`` x 3 m at +1, of
     ``expand`` x 3 m at -1, linearly."""
+    # The three lengths of each of the three groups, once a call rather than once a spring.
+    r0 = (spring_length(0, 1.0), spring_length(1, 1.0), spring_length(2, 1.0))
+    shorter = (r0[0] - spring_length(0, contract), r0[1] - spring_length(1, contract),
+               r0[2] - spring_length(2, contract))
+    longer = (spring_length(0, expand) - r0[0], spring_length(1, expand) - r0[1],
+              spring_length(2, expand) - r0[2])
     for s in range(n_springs):
         a = min(1.0, max(-1.0, actuation[owner[s]]))
         k = kind[s]
-        r0 = spring_length(k, 1.0)
         if a >= 0.0:
-            rest[s] = r0 - (r0 - spring_length(k, contract)) * a
+            rest[s] = r0[k] - shorter[k] * a
         else:
-            rest[s] = r0 + (spring_length(k, expand) - r0) * (-a)
+            rest[s] = r0[k] + longer[k] * (-a)
 
 
 @njit(inline="always")

@@ -30,7 +30,7 @@ from somite.sim.sensors import lidar_rays, noise_table
 from somite.sim.system import compile_system
 from somite.sim.terrain import hilly
 from somite.tasks.episode import episode, new_work, robot_state, robot_work
-from somite.tasks.lanes import PARTS, groups, run_group
+from somite.tasks.lanes import PARTS, Batch, groups, run_group
 from somite.tasks.locomotion import compile_controllers, run
 
 
@@ -86,10 +86,10 @@ def main() -> dict:
         run(system, ctrl, config, list(range(args.robots)))
         kernel = min(kernel, time.perf_counter() - t)
         spent[:] = 0
-        work = new_work(system, ctrl, params)
+        batch = Batch(system, ctrl, params, noise, seeds, config.n_steps, trace,
+                      new_work(system, ctrl, params), rays)
         for f, c in zip(first, count, strict=True):
-            run_group(system, ctrl, params, noise, seeds, config.n_steps, trace, work, rays, f,
-                      c, spent)
+            run_group(batch, f, c, spent)
         if not np.array_equal(trace.com, untimed.com, equal_nan=True):
             raise SystemExit("the timed kernel's trace differs from the untimed one's")
     alone = np.inf

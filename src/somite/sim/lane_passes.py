@@ -6,7 +6,7 @@ why); :mod:`somite.sim.joint_lanes` holds the group's state and calls them.
 
 # ruff: noqa: E501
 
-from .._jit import njit
+from .._jit import uncounted
 from .physics import (
     BLOCK_SIDE,
     J_BIAS,
@@ -50,7 +50,7 @@ LANES = 8
 DONE, CONTACTS_HELD, ROPES_HELD, WELDS_HELD = range(4)
 
 
-@njit(_nrt=False)
+@uncounted
 def start_springs(ends, anchor, rest, work, pos, vel, cos, sin, inv_mass, inv_inertia, dt, omega, damping_ratio):
     """Each spring set up for this step and warm-started (``physics.spring_setup``)."""
     for m in range(ends.shape[0]):
@@ -354,7 +354,7 @@ def start_springs(ends, anchor, rest, work, pos, vel, cos, sin, inv_mass, inv_in
         vb[2, 6] = b2_6
         vb[2, 7] = b2_7
 
-@njit(_nrt=False)
+@uncounted
 def solve_springs(ends, work, vel, inv_mass, inv_inertia):
     """One velocity pass over the springs (``physics.spring_solve``)."""
     for m in range(ends.shape[0]):
@@ -568,7 +568,7 @@ def solve_springs(ends, work, vel, inv_mass, inv_inertia):
         vb[2, 6] = b2_6
         vb[2, 7] = b2_7
 
-@njit(_nrt=False)
+@uncounted
 def start_ropes(ends, work, pos, vel, inv_mass, inv_inertia):
     """Each rope limit set up for this step and warm-started (``physics.rope_setup``)."""
     for m in range(ends.shape[0]):
@@ -857,7 +857,7 @@ def start_ropes(ends, work, pos, vel, inv_mass, inv_inertia):
         vb[2, 6] = b2_6
         vb[2, 7] = b2_7
 
-@njit(_nrt=False)
+@uncounted
 def solve_ropes(ends, work, vel, inv_mass, inv_inertia):
     """One velocity pass over the active rope limits (``physics.rope_solve``)."""
     for m in range(ends.shape[0]):
@@ -1079,7 +1079,7 @@ def solve_ropes(ends, work, vel, inv_mass, inv_inertia):
         vb[2, 6] = b2_6
         vb[2, 7] = b2_7
 
-@njit(_nrt=False)
+@uncounted
 def start_welds(ends, anchor, work, vel, cos, sin, inv_mass, inv_inertia):
     """Each weld set up for this step and warm-started (``physics.weld_setup``)."""
     for m in range(ends.shape[0]):
@@ -1265,7 +1265,7 @@ def start_welds(ends, anchor, work, vel, cos, sin, inv_mass, inv_inertia):
         vb[2, 6] = b2_6
         vb[2, 7] = b2_7
 
-@njit(_nrt=False)
+@uncounted
 def solve_welds(ends, work, vel, inv_mass, inv_inertia):
     """One velocity pass over the welds (``physics.weld_solve``)."""
     for m in range(ends.shape[0]):
@@ -1455,7 +1455,7 @@ def solve_welds(ends, work, vel, inv_mass, inv_inertia):
         vb[2, 6] = b2_6
         vb[2, 7] = b2_7
 
-@njit(_nrt=False)
+@uncounted
 def move(pos, vel, cos, sin, dt):
     """Every lane's bodies moved with their velocities and turned (``physics.positions``)."""
     for p in range(pos.shape[0]):
@@ -1590,7 +1590,7 @@ def move(pos, vel, cos, sin, dt):
         sin[p, 6] = s_6
         sin[p, 7] = s_7
 
-@njit(_nrt=False)
+@uncounted
 def fix_ropes(ends, pos, inv_mass, inv_inertia, flags):
     """One position pass over the rope limits of the busy lanes (``physics.rope_fix``);
 ``flags[l, ROPES_HELD]``: whether lane l's all hold."""
@@ -1756,7 +1756,7 @@ def fix_ropes(ends, pos, inv_mass, inv_inertia, flags):
     flags[6, ROPES_HELD] = held_6
     flags[7, ROPES_HELD] = held_7
 
-@njit(_nrt=False)
+@uncounted
 def fix_welds(ends, anchor, pos, cos, sin, inv_mass, inv_inertia, flags):
     """One position pass over the welds of the busy lanes (``physics.weld_fix``);
 ``flags[l, WELDS_HELD]``: whether lane l's all hold."""

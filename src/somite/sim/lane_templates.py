@@ -43,7 +43,7 @@ def _pass(name: str, args: str, joint: list[str], load: list[str], compute: list
     # Called, not inlined: a pass is long enough that a call costs nothing, and each is
     # compiled once (inlining its eight copies of the arithmetic into every caller cost a
     # minute of compiling).
-    lines = ["", "", "@njit(_nrt=False)", f"def {name}({args}):", f'    """{doc}"""']
+    lines = ["", "", "@uncounted", f"def {name}({args}):", f'    """{doc}"""']
     lines += ["    " + line.format(l=lane) for line in before for lane in range(LANES)]
     lines += ["    " + loop[0]] + ["        " + line for line in loop[1:]]
     lines += ["        " + line for line in joint]
@@ -232,7 +232,7 @@ why); :mod:`somite.sim.joint_lanes` holds the group's state and calls them.
 
 # ruff: noqa: E501
 
-from .._jit import njit
+from .._jit import uncounted
 from .physics import (
 {_IMPORTS})
 from .trig import sincos

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 
-from .._jit import njit
+from .._jit import njit, uncounted
 from .config import BLOCK_SIDE, VOXEL_SIDE
 from .trig import sincos
 
@@ -92,7 +92,7 @@ def spring_length(kind: int, scale: float) -> float:
     return (VOXEL_SIDE * scale - BLOCK_SIDE) * math.sqrt(2.0)
 
 
-@njit(_nrt=False)
+@uncounted
 def set_rest_lengths(n_springs, kind, owner, actuation, contract, expand, rest):
     """``rest``: the rest length of each spring for its voxel's ``actuation`` (V,): from its
     group's rest length towards its length in a voxel of side ``contract`` x 3 m at +1, of
@@ -511,7 +511,7 @@ def fix_welds(robot, pos, cos, sin) -> bool:
     return held
 
 
-@njit(_nrt=False)
+@uncounted
 def start_contacts(robot, scratch, pos, vel, params):
     """Set up this step's contacts (found at the end of the last step) and apply their
     warm-start impulses.
@@ -740,7 +740,7 @@ def segment_near(xs, n, x, guess) -> int:
     return i
 
 
-@njit(_nrt=False)
+@uncounted
 def ground_height(xs, ys, n, x, guess) -> float:
     """Height [m] of the terrain at x (``guess``: a segment index near x)."""
     i = segment_near(xs, n, x, guess)
@@ -974,7 +974,7 @@ def add_contacts(robot, scratch, pos, a, b, partner, one, two, mu) -> int:
     return points
 
 
-@njit(_nrt=False)
+@uncounted
 def find_contacts(robot, ground, scratch, pos, params):
     """The contacts for the next step (dyn4j finds them after each step): each block against
     the ground under every terrain segment its bounding box reaches, and the blocks that share
@@ -1089,12 +1089,12 @@ def step(robot, ground, scratch, pos, vel, params):
     find_contacts(robot, ground, scratch, pos, params)
 
 
-@njit(_nrt=False)
+@uncounted
 def advance(robot, ground, scratch, pos, vel, params, substeps):
     """One control step of physics: ``substeps`` steps under the rest lengths of
     ``scratch.rest``, from any state (the bodies' rotations are taken afresh).
 
-    Compiled without Numba's reference counting (``_nrt=False``: nothing here allocates), as
+    Compiled without Numba's reference counting (``_jit.uncounted``: nothing here allocates), as
     every field read from the per-robot tuples would otherwise cost an atomic increment and
     decrement on each step.
     """
@@ -1109,7 +1109,7 @@ def voxel_corners(corners, v):
     return corners[v, 0], corners[v, 1], corners[v, 2], corners[v, 3]
 
 
-@njit(_nrt=False)
+@uncounted
 def corner_state(robot, pos, vel, cos, sin, corner_pos, corner_vel):
     """Each block's outer corner (the voxel's corner it carries) and the block's velocity:
     what the sensors, the recording and the diagnostics see (the original's voxel velocity is
@@ -1124,7 +1124,7 @@ def corner_state(robot, pos, vel, cos, sin, corner_pos, corner_vel):
         corner_vel[p, 1] = vel[p, 1]
 
 
-@njit(_nrt=False)
+@uncounted
 def lowest_gap(robot, ground, pos, cos, sin, guess) -> float:
     """How high [m] the robot's lowest block corner is above the ground under it (``cos``,
     ``sin`` as for :func:`corner_state`; ``guess``: a segment index near the robot)."""

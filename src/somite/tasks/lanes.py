@@ -20,17 +20,23 @@ cores by :func:`somite._threads.spread`. A benchmark may ask the kernel to time 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
 
 from .._cycles import cycles, tick
-from .._jit import njit
+from .._jit import njit, uncounted
 from .._threads import spread
 from ..sim import joint_lanes as jl
 from ..sim import physics as ph
+from ..sim.config import Params
 from ..sim.sensors import lidar_rays
+from ..sim.system import System
 from .episode import (
+    Controllers,
+    Trace,
+    Work,
     after_physics,
     before_physics,
     borrowed_work_row,
@@ -81,16 +87,44 @@ def groups(system, group_size: int = GROUP_SIZE, threads: int | None = None):
     return np.array(first, dtype=np.int64), np.array(count, dtype=np.int64)
 
 
+class Batch(NamedTuple):
+    """What every group of a batch reads (and writes into: ``trace``, its rows of ``work``)."""
+
+    system: System
+    ctrl: Controllers
+    params: Params
+    noise: np.ndarray  # noise_table(config)
+    seeds: np.ndarray  # (B,) uint64
+    n_steps: int
+    trace: Trace
+    work: Work
+    rays: np.ndarray  # lidar_rays(params)
+
+
+class Group(NamedTuple):
+    """The robots ``first .. first + count - 1`` of a batch, all of one body, as they advance
+    together: robot b's lane and ``flags`` row (:data:`~somite.sim.joint_lanes.DONE`, ...) are
+    b - first; ``running`` holds the robots still running first."""
+
+    first: int
+    count: int
+    lanes: jl.Lanes
+    running: np.ndarray  # (count,) int64
+    flags: np.ndarray  # (LANES, 4) bool
+    spent: np.ndarray  # cycles per part of PARTS (a benchmark), or no rows
+
+
 @njit(inline="always")
-def _lane(system, ctrl, work, rays, b):
+def _lane(batch, b):
     # Only in kernels compiled without reference counting (borrowed_work_row).
-    return state_over(system, b, borrowed_work_row(work, b, system, ctrl), rays)
+    return state_over(batch.system, b,
+                      borrowed_work_row(batch.work, b, batch.system, batch.ctrl), batch.rays)
 
 
 @njit
-def _lanes(system, work, first, count):
-    """The group's :class:`~somite.sim.joint_lanes.Lanes`, every lane holding robot
-    ``first``'s state (a lane no robot uses keeps computing on it, harmlessly)."""
+def _lanes(system, work, first):
+    """The :class:`~somite.sim.joint_lanes.Lanes` of a group from ``first``, every lane
+    holding robot ``first``'s state (a lane no robot uses keeps computing on it, harmlessly)."""
     p, s = system.n_points[first], system.n_springs[first]
     y, q = system.n_ropes[first], system.n_welds[first]
     width = jl.LANES
@@ -109,23 +143,24 @@ def _lanes(system, work, first, count):
 
 
 @njit(inline="always")
-def fix_positions(system, ctrl, work, params, rays, lanes, first, running, n, flags):
-    """The position passes of the robots ``running[:n]`` in ``lanes`` (their contacts robot by
-    robot, their rope limits and welds in the lanes), until each robot's contacts and joints
-    hold or ``params.position_iterations`` passes are done. A running robot's ``flags`` row
-    starts with DONE False, every other row with DONE True."""
-    for _ in range(params.position_iterations):
+def fix_positions(batch, group, n):
+    """The position passes of the robots ``group.running[:n]`` (their contacts robot by robot
+    on their lanes, their rope limits and welds in the lanes), until each robot's contacts and
+    joints hold or ``params.position_iterations`` passes are done. A running robot's ``flags``
+    row starts with DONE False, every other row with DONE True."""
+    lanes, flags = group.lanes, group.flags
+    for _ in range(batch.params.position_iterations):
         for i in range(n):
-            g = running[i] - first
+            g = group.running[i] - group.first
             if not flags[g, jl.DONE]:
-                state = _lane(system, ctrl, work, rays, running[i])
+                state = _lane(batch, group.running[i])
                 flags[g, jl.CONTACTS_HELD] = ph.fix_contacts(
                     state.robot, state.scratch, lanes.pos[:, :, g], lanes.cos[:, g],
                     lanes.sin[:, g])
         jl.fix_joints(lanes, flags)
         going = 0
         for i in range(n):
-            g = running[i] - first
+            g = group.running[i] - group.first
             if not flags[g, jl.DONE]:
                 if (flags[g, jl.CONTACTS_HELD] and flags[g, jl.ROPES_HELD]
                         and flags[g, jl.WELDS_HELD]):
@@ -137,15 +172,16 @@ def fix_positions(system, ctrl, work, params, rays, lanes, first, running, n, fl
 
 
 @njit(inline="always")
-def _step(system, ctrl, work, params, rays, lanes, first, running, n, flags, spent):
-    """:func:`somite.sim.physics.step` for each robot of ``running[:n]`` (the robots still
-    running of the group from ``first``), pass by pass, in ``lanes`` (robot b's lane and
-    ``flags`` row are b - first) but for its contacts, which run robot by robot on its lane.
-    ``spent``: cycles per part (:data:`PARTS`) when it has rows (a benchmark), else nothing."""
+def step(batch, group, n):
+    """:func:`somite.sim.physics.step` for each robot of ``group.running[:n]``, pass by pass,
+    in the group's lanes but for the contacts, which run robot by robot on their lanes; with
+    the cycles of each part (:data:`PARTS`) added to ``group.spent`` when it has rows."""
+    params, lanes, running, first, spent = (batch.params, group.lanes, group.running,
+                                            group.first, group.spent)
     timed = spent.shape[0] > 0
     clock = cycles() if timed else 0
     for i in range(n):
-        state = _lane(system, ctrl, work, rays, running[i])
+        state = _lane(batch, running[i])
         w = state.work
         ph.velocities(state.robot, w.body_vel, params)
         ph.start_contacts(state.robot, state.scratch, w.body_pos, w.body_vel, params)
@@ -157,70 +193,65 @@ def _step(system, ctrl, work, params, rays, lanes, first, running, n, flags, spe
         jl.solve_joints(lanes)
         clock = tick(spent, P_JOINTS, clock, timed)
         for i in range(n):
-            state = _lane(system, ctrl, work, rays, running[i])
+            state = _lane(batch, running[i])
             ph.solve_contacts(state.robot, state.scratch, lanes.vel[:, :, running[i] - first])
         clock = tick(spent, P_CONTACTS, clock, timed)
     jl.move(lanes.pos, lanes.vel, lanes.cos, lanes.sin, params.dt)
     clock = tick(spent, P_MOVE, clock, timed)
-    for g in range(flags.shape[0]):
-        flags[g, jl.DONE] = True
+    for g in range(group.flags.shape[0]):
+        group.flags[g, jl.DONE] = True
     for i in range(n):
-        flags[running[i] - first, jl.DONE] = False
-    fix_positions(system, ctrl, work, params, rays, lanes, first, running, n, flags)
+        group.flags[running[i] - first, jl.DONE] = False
+    fix_positions(batch, group, n)
     clock = tick(spent, P_POSITIONS, clock, timed)
     for i in range(n):
-        state = _lane(system, ctrl, work, rays, running[i])
+        state = _lane(batch, running[i])
         w = state.work
         jl.give(lanes, running[i] - first, w.body_pos, w.body_vel, w.cos, w.sin)
         ph.find_contacts(state.robot, state.ground, state.scratch, w.body_pos, params)
     tick(spent, P_FOUND, clock, timed)
 
 
-@njit(_nrt=False)
-def advance_group(system, ctrl, work, params, rays, lanes, first, running, n, count, flags,
-                  spent):
-    """One control step of physics for the robots ``running[:n]`` of a group of ``count``:
-    what :func:`somite.sim.physics.advance` does for each (a robot alone: that function, as
-    eight lanes for one robot cost 1.7x its time)."""
-    if count == 1:
-        state = _lane(system, ctrl, work, rays, running[0])
+@uncounted
+def advance_group(batch, group, n):
+    """One control step of physics for the robots ``group.running[:n]``: what
+    :func:`somite.sim.physics.advance` does for each (a robot alone: that function, as eight
+    lanes for one robot cost 1.7x its time)."""
+    params = batch.params
+    if group.count == 1:
+        state = _lane(batch, group.running[0])
         ph.advance(state.robot, state.ground, state.scratch, state.work.body_pos,
                    state.work.body_vel, params, int(params.substeps))
         return
     for i in range(n):
-        state = _lane(system, ctrl, work, rays, running[i])
+        state = _lane(batch, group.running[i])
         ph.turn(state.robot.n_points, state.work.body_pos, state.scratch.cos, state.scratch.sin)
     for _ in range(int(params.substeps)):
-        _step(system, ctrl, work, params, rays, lanes, first, running, n, flags, spent)
+        step(batch, group, n)
 
 
-@njit(_nrt=False)
-def control_steps(system, ctrl, params, noise, seeds, n_steps, trace, work, rays, first, count,
-                  running, flags, lanes, spent):
-    """Control steps 1 .. ``n_steps`` of the group's robots. Compiled without reference
-    counting: every view of the batch's arrays taken here would otherwise cost an atomic
-    increment and decrement of a counter that the other threads' groups share too (the batch
-    kernel ran 10-15% slower on 2 threads)."""
-    n = count
+@uncounted
+def control_steps(batch, group):
+    """Control steps 1 .. ``batch.n_steps`` of the group's robots. Compiled without reference
+    counting (:func:`somite._jit.uncounted`)."""
+    params, running, spent = batch.params, group.running, group.spent
+    n = group.count
     timed = spent.shape[0] > 0
-    for k in range(1, n_steps + 1):
+    for k in range(1, batch.n_steps + 1):
         clock = cycles() if timed else 0
         for i in range(n):
-            state = _lane(system, ctrl, work, rays, running[i])
-            if count == 1:
-                before_physics(state.robot, state.work.actuation, params, state.scratch.rest)
-            else:
-                before_physics(state.robot, state.work.actuation, params,
-                               lanes.rest[:, running[i] - first])
+            state = _lane(batch, running[i])
+            rest = (state.scratch.rest if group.count == 1
+                    else group.lanes.rest[:, running[i] - group.first])
+            before_physics(state.robot, state.work.actuation, params, rest)
         clock = tick(spent, P_REST, clock, timed)
-        advance_group(system, ctrl, work, params, rays, lanes, first, running, n, count, flags,
-                      spent)
+        advance_group(batch, group, n)
         clock = cycles() if timed else 0
         going = 0
         for i in range(n):
             b = running[i]
-            if after_physics(k, b, system, ctrl, params, noise, seeds[b], trace,
-                             _lane(system, ctrl, work, rays, b)):
+            if after_physics(k, b, batch.system, batch.ctrl, params, batch.noise,
+                             batch.seeds[b], batch.trace, _lane(batch, b)):
                 running[going] = b
                 going += 1
         tick(spent, P_SENSE, clock, timed)
@@ -230,32 +261,28 @@ def control_steps(system, ctrl, params, noise, seeds, n_steps, trace, work, rays
 
 
 @njit
-def run_group(system, ctrl, params, noise, seeds, n_steps, trace, work, rays, first, count,
-              spent):
+def run_group(batch, first, count, spent):
     """The episodes of robots ``first .. first + count - 1``, control step by control step
-    (``spent``: see :func:`_step`)."""
-    running = np.empty(count, dtype=np.int64)
-    flags = np.empty((jl.LANES, 4), dtype=np.bool_)
-    for i in range(count):
-        b = first + i
-        running[i] = b
-        start(b, system, params, trace, robot_state(system, b, params,
-                                                    work_row(work, b, system, ctrl), rays))
-    control_steps(system, ctrl, params, noise, seeds, n_steps, trace, work, rays, first, count,
-                  running, flags, _lanes(system, work, first, count), spent)
-    for i in range(count):
-        b = first + i
-        finish(b, trace, state_over(system, b, work_row(work, b, system, ctrl), rays))
+    (``spent``: see :func:`step`)."""
+    system, work = batch.system, batch.work
+    for b in range(first, first + count):
+        start(b, system, batch.params, batch.trace,
+              robot_state(system, b, batch.params, work_row(work, b, system, batch.ctrl),
+                          batch.rays))
+    control_steps(batch, Group(first, count, _lanes(system, work, first),
+                               np.arange(first, first + count),
+                               np.empty((jl.LANES, 4), dtype=np.bool_), spent))
+    for b in range(first, first + count):
+        finish(b, batch.trace, state_over(system, b, work_row(work, b, system, batch.ctrl),
+                                          batch.rays))
 
 
-def run_groups(system, ctrl, params, noise, seeds, n_steps, trace, work, first, count) -> None:
+def run_groups(batch: Batch, first, count) -> None:
     """Every group's episodes (:func:`run_group`), the groups handed out to the threads one at
     a time, as robots take unequal times (graph sizes, contacts)."""
-    rays = lidar_rays(params)
 
     def one(g: int) -> None:
-        run_group(system, ctrl, params, noise, seeds, n_steps, trace, work, rays, first[g],
-                  count[g], NOT_TIMED)
+        run_group(batch, first[g], count[g], NOT_TIMED)
 
     spread(one, first.shape[0])
 
@@ -263,5 +290,5 @@ def run_groups(system, ctrl, params, noise, seeds, n_steps, trace, work, first, 
 def run_batch(system, ctrl, params, noise, seeds, n_steps, trace) -> None:
     """Run every robot of the batch into ``trace`` (the CPU backend)."""
     first, count = groups(system)
-    run_groups(system, ctrl, params, noise, seeds, n_steps, trace,
-               new_work(system, ctrl, params), first, count)
+    run_groups(Batch(system, ctrl, params, noise, seeds, n_steps, trace,
+                     new_work(system, ctrl, params), lidar_rays(params)), first, count)

@@ -4,30 +4,31 @@
 The robot is one rigid square block per voxel corner (docs/original-system.md section 1.2),
 joined by soft springs, rope limits and welds, touching the ground and, where they share no
 joint, each other. A control step is ``params.substeps`` steps of dyn4j 3.3 (the engine under
-2D-VSR-Sim), each in this order (:func:`step`):
+2D-VSR-Sim), each in this order (:func:`step`); dyn4j's names in brackets:
 
-1. :func:`apply_gravity_and_damping`  ``Island.solve``: integrate the velocities
-2. :func:`set_up_contacts`            ``SequentialImpulses.initialize``, warm start
-3. :func:`set_up_springs`, :func:`set_up_ropes`, :func:`set_up_welds`
-                                      ``Joint.initializeConstraints``, warm start
-4. ``velocity_iterations`` passes of  ``solveVelocityConstraints``: springs, ropes, welds,
-   :func:`solve_springs` .. :func:`solve_contacts`   then the contacts
-5. :func:`move_bodies`                ``Island.solve``: integrate the positions
-6. at most ``position_iterations``    ``solvePositionConstraints``: contacts, ropes, welds;
-   passes of :func:`fix_contacts` ..  stop once all of them hold
-7. :func:`find_contacts`              ``World.detect``: separating axes (``Sat``), the
-                                      clipping manifold (``ClippingManifoldSolver``), warm
-                                      start by feature (``IndexedManifoldPointId``)
+1. :func:`apply_gravity_and_damping` (``Island.solve``, integrating the velocities);
+2. :func:`set_up_contacts`, with last step's impulses (``SequentialImpulses.initialize``);
+3. :func:`set_up_springs`, :func:`set_up_ropes`, :func:`set_up_welds`, likewise
+   (``DistanceJoint``, ``RopeJoint``, ``WeldJoint``: ``initializeConstraints``);
+4. ``velocity_iterations`` passes over the springs, ropes, welds, then the contacts
+   (:func:`solve_springs` ... :func:`solve_contacts`; ``solveVelocityConstraints``);
+5. :func:`move_bodies` (``Island.solve``, integrating the positions);
+6. at most ``position_iterations`` passes over the contacts, ropes and welds, stopping once all
+   of them hold (:func:`fix_contacts` ... :func:`fix_welds`; ``solvePositionConstraints``);
+7. :func:`find_contacts` for the next step (``World.detect``: separating axes, ``Sat``; the
+   clipping manifold, ``ClippingManifoldSolver``; warm start by feature,
+   ``IndexedManifoldPointId``).
 
 The passes are Gauss-Seidel: every joint and contact sees the velocities (or positions) that
 the ones before it left, so the order of the joints and contacts is part of the physics, and
 this file keeps the kernel's. It also keeps the kernel's arithmetic expression by expression,
-so that both agree to rounding (a kernel may take its sines and cosines from elsewhere than
+so that the two agree to rounding (a kernel may take its sines and cosines from elsewhere than
 libm), not merely to the model. A body's rotation is always the cosine and sine of its angle:
 the kernel caches them, this file takes them afresh where it needs them.
 
 Vectors are (x, y) tuples of floats; ``pos`` and ``vel`` (P, 3) hold each block's centre and
-angle, velocity and angular velocity.
+angle, velocity and angular velocity. Copying the kernel's arrays in and out:
+tests/test_reference_step.py.
 """
 
 from __future__ import annotations
@@ -123,7 +124,7 @@ class State:
     weld_impulse: np.ndarray  # (W, 3) x, y, angle
     contacts: list = field(default_factory=list)  # list[Contact] for the next step
     touching: np.ndarray | None = None  # (P,) bool: the block touches the ground
-    rope_active: np.ndarray | None = None  # (Y,) bool: last step's rope limits in force
+    rope_active: np.ndarray | None = None  # (Y,) bool: the rope limits in force last step
 
 
 # small vector helpers -----------------------------------------------------------------------

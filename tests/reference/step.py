@@ -43,7 +43,7 @@ from somite.sim.config import BLOCK_SIDE
 
 # dyn4j's Settings (docs/original-system.md section 1.1).
 LINEAR_SLOP = 0.005  # [m] linear tolerance: error the position passes leave alone
-ANGULAR_SLOP = math.radians(2.0)  # [rad] angular tolerance
+ANGULAR_SLOP = 2.0 * math.pi / 180.0  # [rad] angular tolerance, 2 degrees
 MAX_CORRECTION = 0.2  # [m] largest linear correction of one position pass
 BAUMGARTE = 0.2  # share of a contact's penetration one position pass removes
 MAX_TRANSLATION = 2.0  # [m] largest move of a body in one step

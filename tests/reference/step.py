@@ -22,9 +22,9 @@ joint, each other. A control step is ``params.substeps`` steps of dyn4j 3.3 (the
 The passes are Gauss-Seidel: every joint and contact sees the velocities (or positions) that
 the ones before it left, so the order of the joints and contacts is part of the physics, and
 this file keeps the kernel's. It also keeps the kernel's arithmetic expression by expression,
-so that the two agree to rounding (a kernel may take its sines and cosines from elsewhere than
-libm), not merely to the model. A body's rotation is always the cosine and sine of its angle:
-the kernel caches them, this file takes them afresh where it needs them.
+so that the two agree to rounding (the kernel takes its sines and cosines from a polynomial,
+this file from libm), not merely to the model. A body's rotation is always the cosine and sine
+of its angle: the kernel caches them, this file takes them afresh where it needs them.
 
 Vectors are (x, y) tuples of floats; ``pos`` and ``vel`` (P, 3) hold each block's centre and
 angle, velocity and angular velocity. Copying the kernel's arrays in and out:

@@ -27,6 +27,7 @@ from pathlib import Path
 
 from somite.campaigns import directory as campaign_dir
 from somite.campaigns.pack import EVERY, LAST, _encode, _Tables, pack
+from somite.errors import SomiteError
 from somite.experiments.history import THINNED
 from somite.report.paper import TABLE1
 
@@ -106,11 +107,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, default=3)
     args = parser.parse_args(argv)
     root = Path(args.campaign)
-    doc = campaign_dir.read(root)
-    runs = [measure(root / t["path"]) for t in doc["tasks"]
-            if t["kind"] == "evolve" and (root / t["path"] / "checkpoint.json").is_file()]
-    with tempfile.TemporaryDirectory() as scratch:
-        packed = pack(root, Path(scratch) / "measured.pack")
+    try:
+        doc = campaign_dir.read(root)
+        runs = [measure(root / t["path"]) for t in doc["tasks"]
+                if t["kind"] == "evolve" and (root / t["path"] / "checkpoint.json").is_file()]
+        with tempfile.TemporaryDirectory() as scratch:
+            packed = pack(root, Path(scratch) / "measured.pack")
+    except SomiteError as error:
+        sys.stderr.write(f"{parser.prog}: error: {error}\n")
+        return 2
     rate = rates(runs)
     json.dump({"measured": {"pack_bytes": packed.bytes, "files_bytes": packed.size,
                             "bests_kept": packed.bests_kept,

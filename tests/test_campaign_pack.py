@@ -126,7 +126,8 @@ def test_a_campaign_packed_part_way_and_finished_elsewhere_is_the_uninterrupted_
     packed = tmp_path / "tiny.pack"
     assert main(["campaign", "pack", str(stopped), "--out", str(packed)]) == 0
     out, err = capsys.readouterr()
-    assert "read rq1/worm-s0 (1 of 3 tasks)" in err and f"{packed}:" in out
+    assert "reading rq1/worm-s0 (1 of 3 tasks)" in err and f"{packed}:" in out
+    assert "reading rq1/worm-s1 (2 of 3 tasks)" in err  # stopped part-way: no done.json
     moved = tmp_path / "elsewhere" / "c"
     assert main(["campaign", "unpack", str(packed), "--out", str(moved)]) == 0
     assert f"campaign run --resume --out {moved}" in capsys.readouterr().out

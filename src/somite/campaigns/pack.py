@@ -50,7 +50,7 @@ from ..experiments.history import THINNED, line_digest, thinned_line
 from ..experiments.lock import LOCK_NAME, RunLock
 from ..experiments.logfile import LOG_COLUMNS
 from . import directory as campaign_dir
-from .layout import CAMPAIGN, DONE
+from .layout import CAMPAIGN
 
 MAGIC = b"somite campaign pack\n"
 """The first bytes of a pack (then the xz stream)."""
@@ -480,11 +480,14 @@ def pack(directory: str | Path, out: str | Path, say: Say | None = None) -> Pack
         tables = _Tables()
         entries, blobs, result = [], [], Packed()
         order = [t["path"] for t in doc["tasks"]]
+        shown = None
         for path in files:
             relative = path.relative_to(root).as_posix()
             task_path = relative.rsplit("/", 1)[0]
-            if path.name == DONE and task_path in order:
-                say(f"read {task_path} ({order.index(task_path) + 1} of {len(order)} tasks)")
+            if task_path in order and task_path != shown:  # a task's files come together
+                shown = task_path
+                say(f"reading {task_path} ({order.index(task_path) + 1} of {len(order)} "
+                    "tasks)")
             data = path.read_bytes()
             thin = task_path in thinned_tasks
             encoding, stored, back = _encode(path, data, tables, thin)
@@ -569,7 +572,7 @@ def unpack(pack_path: str | Path, out: str | Path, say: Say | None = None) -> di
                 "checkpoint": lambda d: _decode_checkpoint(d, tables).encode("utf-8")}
     try:
         staging.mkdir(parents=True)
-        at = 0
+        at, shown = 0, ""
         for number, entry in enumerate(entries, 1):
             _check_entry(entry, where)
             stored = data[at:at + entry["length"]]
@@ -586,8 +589,10 @@ def unpack(pack_path: str | Path, out: str | Path, say: Say | None = None) -> di
             file = staging / entry["path"]
             file.parent.mkdir(parents=True, exist_ok=True)
             file.write_bytes(content)
-            if entry["path"].endswith("/done.json") or number == len(entries):
-                say(f"unpacked {number}/{len(entries)} files")
+            folder = entry["path"].rpartition("/")[0]
+            if folder and folder != shown:
+                shown = folder
+                say(f"unpacking {folder} (file {number} of {len(entries)})")
         if at != len(data):
             raise bad("pack", where, "damaged pack (data after the last file)")
         campaign_dir.read(staging)  # the campaign.json is a campaign's, checked as a whole

@@ -78,6 +78,10 @@ def add_evolution_options(parser: argparse.ArgumentParser,
                         help="continue from the last checkpoint (a run killed before its first "
                         "one starts again: the same run)")
     parser.add_argument("--force", action="store_true", help="overwrite an existing run")
+    parser.add_argument("--force-physics", action="store_true",
+                        help="with --resume: resume a run that ran under another physics "
+                        "version than this somite's (refused without it); its physics.json "
+                        "records that")
     add_options(parser, "backend", "quiet", "yes")
 
 
@@ -95,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
         note_compiling(args.quiet, backend)
         with progress_bar(config.generations, args.quiet) as report:
             ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report,
-                        backend=backend)
+                        backend=backend, force_physics=args.force_physics)
     summarise(ea, run_dir, args.quiet)
     warn_whole_episode(args.prog, config.setup.sim)  # last: a caveat on the result
     return 0
@@ -111,6 +115,9 @@ def configuration(args: argparse.Namespace, defaults: dict | None = None, **fixe
     run_dir = RunDirectory(args.out)
     if args.resume and args.force:
         raise bad("resume", True, "--resume and --force exclude each other")
+    if args.force_physics and not args.resume:
+        raise bad("force_physics", True, "only with --resume (a new run runs under this "
+                  "somite's physics)")
     # A run killed before it wrote config.json left an empty directory: resuming it is
     # starting it.
     unborn = run_dir.path.is_dir() and not run_dir.has_run()

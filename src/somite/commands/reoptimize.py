@@ -62,7 +62,8 @@ def run(args: argparse.Namespace) -> int:
             ea, rows, velocities = reoptimize(config, run_dir, genome, donors,
                                               args.validation, resume=args.resume,
                                               force=args.force, progress=report,
-                                              backend=backend)
+                                              backend=backend,
+                                              force_physics=args.force_physics)
     summarise(ea, RunDirectory(args.out), args.quiet)
     donors_mean = mean_velocity(velocities) if donors else math.nan
     if not args.quiet and donors:

@@ -47,7 +47,12 @@ def run(args: argparse.Namespace) -> int:
     genome = assemble(placements)
     if config is not None:
         check_episodes(args.evaluate, config, genome.body, args.yes, "this evaluation")
-    evaluation = _evaluate(args, genome, config) if args.evaluate else None
+    evaluation = None
+    if args.evaluate:
+        from ._progress import simulating
+
+        with simulating(f"measuring it on {args.evaluate} validation terrains"):
+            evaluation = _evaluate(args, genome, config)
     make_folder(out)
     genome.save(out / "assembled.json")
     if evaluation is not None:

@@ -8,7 +8,8 @@ hills, is another experiment. The settings are read from the folder the genome i
 - a run directory (or a genome file inside one, such as its ``best.json``): its
   ``config.json`` gives duration, transient, preset and training terrain;
 - a reassembly folder (``reassembled.json`` beside a ``report.json``): the settings its
-  validation ran with.
+  validation ran with, and the training terrain its donors' runs shared (recorded as each
+  donor's ``terrain`` in ``report.json``).
 """
 
 from __future__ import annotations
@@ -37,7 +38,8 @@ class Origin:
     preset : str or None
         Simulator preset.
     terrain : str or None
-        A run's training terrains (a distribution name, :mod:`somite.tasks.distributions`).
+        A run's training terrains (a distribution name, :mod:`somite.tasks.distributions`);
+        a reassembly's: its donors' runs', when they shared one.
     modules : str or None
         A run's partition for omega, when it had one.
     validation_velocity : float or None
@@ -100,12 +102,26 @@ def _reassembly_origin(folder: Path) -> Origin:
     settings = data.get("validation") if isinstance(data, dict) else None
     if not isinstance(settings, dict):
         return Origin()
+    donors = data.get("donors")
+    terrains = {_text(d.get("terrain")) if isinstance(d, dict) else None
+                for d in (donors if isinstance(donors, list) else [])}
     return Origin(
         source=f"reassembly {folder}",
         duration=_number(settings.get("duration")),
         transient=_number(settings.get("transient")),
         preset=_text(settings.get("preset")),
+        terrain=terrains.pop() if len(terrains) == 1 else None,
     )
+
+
+def shared_terrain(paths) -> tuple[str | None, str]:
+    """The training terrain that the runs of the genomes at ``paths`` shared, and what it was
+    read from (``runs a, b``); (None, "") when any of them has none or they differ."""
+    origins = [origin_of(path) for path in paths]
+    terrains = {origin.terrain for origin in origins}
+    if not origins or len(terrains) != 1 or None in terrains:
+        return None, ""
+    return terrains.pop(), ", ".join(origin.source for origin in origins)
 
 
 def _last_validation(folder: Path) -> float | None:
@@ -141,4 +157,4 @@ def _text(value) -> str | None:
     return value if isinstance(value, str) and value else None
 
 
-__all__ = ["Origin", "origin_of"]
+__all__ = ["Origin", "origin_of", "shared_terrain"]

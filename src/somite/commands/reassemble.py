@@ -135,7 +135,7 @@ def _print_summary(report: dict, out: Path) -> None:
         v = report["validation"]
         print(
             f"  v_x donor1 {_fmt(v['v_donor1'])}  donor2 {_fmt(v['v_donor2'])}  "
-            f"reassembled {_fmt(v['v_reassembled'])}  rho {_fmt(v['rho'])}"
+            f"reassembled {_fmt(v['v_reassembled'])} m/s  rho {_fmt(v['rho'])}"
         )
 
 

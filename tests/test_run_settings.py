@@ -131,3 +131,21 @@ def test_module_export_records_the_runs_validation_velocity(run, tmp_path, capsy
     assert f"from run {run}" in capsys.readouterr().out
     recorded = json.loads(out.read_text())["provenance"]["donor_velocity"]
     assert recorded == pytest.approx(origin_of(run).validation_velocity)
+
+
+def test_assemble_evaluates_with_its_modules_donors_settings(run, tmp_path, capsys):
+    lib = tmp_path / "lib"
+    for module in ("back", "front"):
+        assert main(["module", "export", str(run), "--partition", "worm-halves", "--module",
+                     module, "--out", str(lib / f"{module}.json")]) == 0
+    out = tmp_path / "robot"
+    assert main(["assemble", str(lib), "--place", "back@0,0", "--place", "front@3,0",
+                 "--evaluate", "1", "--out", str(out)]) == 0
+    evaluation = json.loads((out / "evaluation.json").read_text())
+    assert (evaluation["duration"], evaluation["preset"]) == (2.0, "original-code")
+    assert f"from run {run}, run {run} where not given" in capsys.readouterr().out
+    assert main(["assemble", str(lib), "--place", "back@0,0", "--place", "front@3,0",
+                 "--evaluate", "1", "--duration", "1.5", "--preset", "paper",
+                 "--out", str(tmp_path / "given")]) == 0
+    evaluation = json.loads((tmp_path / "given" / "evaluation.json").read_text())
+    assert (evaluation["duration"], evaluation["preset"]) == (1.5, "paper")

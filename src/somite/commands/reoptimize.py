@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from ..experiments.origin import origin_of, shared_terrain
+from ..experiments.origin import origin_of, shared_origin
 from ..experiments.reoptimize import reoptimize
 from ..experiments.runner import RunDirectory
 from ..modules.transfer import RHO_FLOOR
@@ -51,7 +51,8 @@ def run(args: argparse.Namespace) -> int:
     # else the one the --donors' runs shared, else the default; the settings line says which.
     terrain, terrain_from = origin.terrain, origin.source
     if terrain is None:
-        terrain, terrain_from = shared_terrain(args.donors)
+        donors_origin = shared_origin(args.donors)
+        terrain, terrain_from = donors_origin.terrain, donors_origin.source
     inherited = {**origin.options(), **({"terrain": terrain} if terrain else {})}
     config = configuration(args, defaults=inherited, shape=shape, start=str(args.genome))
     check_run_work(config, genome.body.shape.n_voxels, args.yes, "this re-optimisation")

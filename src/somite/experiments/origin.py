@@ -114,14 +114,21 @@ def _reassembly_origin(folder: Path) -> Origin:
     )
 
 
-def shared_terrain(paths) -> tuple[str | None, str]:
-    """The training terrain that the runs of the genomes at ``paths`` shared, and what it was
-    read from (``runs a, b``); (None, "") when any of them has none or they differ."""
+def shared_origin(paths) -> Origin:
+    """What the runs of the genomes at ``paths`` (donors) all had: their settings when every
+    one has the same, their training terrain likewise, ``source`` naming them all
+    (``run a, run b``); an empty Origin when any has no run or none is shared."""
     origins = [origin_of(path) for path in paths]
+    if not origins or not all(origin.source for origin in origins):
+        return Origin()
+    options = {tuple(sorted(origin.options().items())) for origin in origins}
     terrains = {origin.terrain for origin in origins}
-    if not origins or len(terrains) != 1 or None in terrains:
-        return None, ""
-    return terrains.pop(), ", ".join(origin.source for origin in origins)
+    settings = dict(options.pop()) if len(options) == 1 else {}
+    terrain = terrains.pop() if len(terrains) == 1 else None
+    if not settings and terrain is None:
+        return Origin()
+    return Origin(source=", ".join(origin.source for origin in origins), terrain=terrain,
+                  **settings)
 
 
 def _last_validation(folder: Path) -> float | None:
@@ -157,4 +164,4 @@ def _text(value) -> str | None:
     return value if isinstance(value, str) and value else None
 
 
-__all__ = ["Origin", "origin_of", "shared_terrain"]
+__all__ = ["Origin", "origin_of", "shared_origin"]

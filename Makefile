@@ -9,7 +9,7 @@ TEST_STAMP := $(VENV)/.installed-test
 
 # The demo needs somite and its dependencies only; the tests add their own on top.
 $(STAMP): pyproject.toml
-	@echo "creating $(VENV) and installing somite with its dependencies into it (1-3 minutes)"
+	@echo "creating $(VENV) and installing somite with its dependencies into it (1-2 minutes on 2 cores)"
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --progress-bar off -e .
@@ -26,7 +26,7 @@ demo: $(STAMP)
 # --dist loadfile: a file's tests run on one worker, so that module fixtures (a campaign and its
 # report, ~40 s each) are built once, not once per worker.
 test: $(TEST_STAMP)
-	@echo "running the test suite on every core (about 12 minutes on 2 idle cores, 15-25 under load; the first minutes compile the kernels)"
+	@echo "running the test suite on every core (11 minutes on 2 idle cores, 22.5 measured under load; the first minutes compile the kernels)"
 	$(BIN)/python -m pytest -q -n auto --dist loadfile
 
 bench: $(STAMP)

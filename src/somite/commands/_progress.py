@@ -100,7 +100,7 @@ class Waiting:
 
         columns = [SpinnerColumn()]
         if self.total is not None:
-            columns += [BarColumn(), MofNCompleteColumn(), TextColumn(self.unit)]
+            columns += [BarColumn(), MofNCompleteColumn(), TextColumn(f"{self.unit}:")]
         columns.append(TextColumn("{task.description}"))
         columns.append(TimeElapsedColumn())
         if self.eta:

@@ -318,7 +318,9 @@ _SHOWN = 12
 
 class LiveView:
     """The progress of a running campaign: tasks done / running / queued, generations, ETA,
-    the running runs and the Dask dashboard's address. Nothing at all when ``quiet``."""
+    the running runs and the Dask dashboard's address, live on a terminal; elsewhere (a log)
+    the counts as a line every :data:`~somite.commands._progress.HEARTBEAT_SECONDS`. Nothing
+    at all when ``quiet``."""
 
     def __init__(self, directory: Path, doc: dict, quiet: bool) -> None:
         self.directory, self.doc, self.quiet = directory, doc, quiet
@@ -327,23 +329,39 @@ class LiveView:
         self.at_start = None
         self.last = 0.0
         self.dashboard = ""
+        self.beat = None
 
     def __enter__(self) -> LiveView:
-        if not self.quiet:
-            from rich.live import Live
+        if self.quiet:
+            return self
+        from rich.live import Live
 
-            self.live = Live(self._render(), refresh_per_second=2)
-            self.live.start()
+        self.live = Live(self._render(), refresh_per_second=2)
+        if not self.live.console.is_terminal:
+            from ._progress import Waiting
+
+            # A log sees nothing of a Live display until it stops: a line now and then
+            # (on standard error), and the whole view at the end, as before.
+            self.beat = Waiting(self._counts()).__enter__()
+            return self
+        self.live.start()
         return self
 
     def update(self, outcome) -> None:
-        if self.live is None or time.monotonic() - self.last < 1.0:
+        if self.beat is not None and time.monotonic() - self.last >= 1.0:
+            self.last = time.monotonic()
+            self.beat.update(text=self._counts())
+        if self.live is None or self.beat is not None or time.monotonic() - self.last < 1.0:
             return
         self.last = time.monotonic()
         self.dashboard = outcome.dashboard
         self.live.update(self._render())
 
-    def _render(self):
+    def _counts(self) -> str:
+        """The view's second line, alone (the counts, the share done, the ETA)."""
+        return self._render(full=False)
+
+    def _render(self, full: bool = True):
         from rich.console import Group
         from rich.text import Text
 
@@ -357,13 +375,16 @@ class LiveView:
         rate = (done - self.at_start) / elapsed if elapsed > 0 else 0.0
         eta = _duration((total - done) / rate) if rate > 0 else "-"
         counts = now.counts
+        summary = (f"tasks: {counts['done']} done, {counts['running']} running, "
+                   f"{counts['queued'] + counts['partial']} queued (of {sum(counts.values())})   "
+                   f"generations {now.generations[0]}/{now.generations[1]}   "
+                   f"{now.fraction:.1%} of {total:.3g} robot-control-steps   "
+                   f"elapsed {_duration(elapsed)}  ETA {eta}")
+        if not full:
+            return summary
         lines = [
             Text(f"campaign {self.doc.get('name')} -> {self.directory}", style="bold"),
-            Text(f"tasks: {counts['done']} done, {counts['running']} running, "
-                 f"{counts['queued'] + counts['partial']} queued (of {sum(counts.values())})   "
-                 f"generations {now.generations[0]}/{now.generations[1]}   "
-                 f"{now.fraction:.1%} of {total:.3g} robot-control-steps   "
-                 f"elapsed {_duration(elapsed)}  ETA {eta}"),
+            Text(summary),
             Text("dashboard: " + (self.dashboard or "none (Dask's needs bokeh: pip install "
                                   "'somite[dashboard]')")),
         ]
@@ -377,7 +398,11 @@ class LiveView:
         return Group(*lines)
 
     def __exit__(self, *exc) -> None:
-        if self.live is not None:
+        if self.beat is not None:
+            self.beat.__exit__(*exc)
+            self.live.console.print(self._render())
+            self.live.console.line()
+        elif self.live is not None:
             self.live.update(self._render())
             self.live.stop()
             if not self.live.console.is_terminal:

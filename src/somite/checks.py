@@ -1,4 +1,6 @@
-"""The checks of the public Python API's arguments, one function a kind of value.
+"""The checks of the public Python API's arguments, one function a kind of value (numbers,
+text, lists, seeds); :mod:`somite.tasks.arguments` adds somite's own types (a body, a genome,
+a terrain, a simulation config) on top.
 
 Every public entry point (:class:`~somite.tasks.stepper.Episode`, :func:`somite.simulate`,
 :func:`~somite.tasks.locomotion.simulate_batch`, :func:`somite.evaluate_genomes`,
@@ -119,24 +121,6 @@ def seeds(field: str, value, n: int) -> list[int]:
                     NOISE_SEED_END - 1) for i, seed in enumerate(listed)]
 
 
-def sim_config(field: str, value):
-    """``value``, a :class:`~somite.sim.config.SimConfig`, or one by default for None."""
-    from .sim.config import SimConfig
-
-    if value is None:
-        return SimConfig()
-    return instance(field, value, SimConfig, "a somite SimConfig (somite.preset(...))")
-
-
-def terrain(field: str, value):
-    """A :class:`~somite.sim.terrain.Terrain` or a terrain name, as a Terrain."""
-    from .sim.terrain import Terrain, parse_terrain
-
-    if isinstance(value, Terrain):
-        return value
-    return named(field, parse_terrain, text(field, value))
-
-
 def named(field: str, parse, value):
     """``parse(value)``, its one-line error led by ``field`` when it names another (a parser
     of the command line's says ``terrain=``; the argument may be ``terrains[3]``)."""
@@ -148,66 +132,5 @@ def named(field: str, parse, value):
         raise type(error)(f"{field}: {error}") from None
 
 
-def terrains(field: str, value, n: int, most: int):
-    """One terrain for ``n`` robots (a name or a Terrain, for all) or one per robot, of at
-    most ``most``; as a list of ``n`` Terrains. One name is parsed once."""
-    from .sim.terrain import Terrain
-
-    if isinstance(value, (str, Terrain)):
-        return [terrain(field, value)] * n
-    listed = items(field, value, most, least=1,
-                   expected="a terrain name, a Terrain or a list of them")
-    if len(listed) != n:
-        raise bad(field, f"{len(listed)} terrains", f"need one, or one per robot ({n})")
-    parsed: dict[str, Terrain] = {}
-    worlds = []
-    for i, item in enumerate(listed):
-        if isinstance(item, str) and item in parsed:
-            worlds.append(parsed[item])
-            continue
-        world = terrain(f"{field}[{i}]", item)
-        if isinstance(item, str):
-            parsed[item] = world
-        worlds.append(world)
-    return worlds
-
-
-def body(field: str, value):
-    from .sim.body import Body
-
-    return instance(field, value, Body, "a somite Body (somite.Body.build(...))")
-
-
-def genome(field: str, value):
-    from .brain.genome import Genome
-
-    return instance(field, value, Genome, "a somite Genome")
-
-
-def genomes(field: str, value, most: int) -> list:
-    """A list of at most ``most`` :class:`~somite.brain.genome.Genome`."""
-    listed = items(field, value, most)
-    for i, item in enumerate(listed):
-        genome(f"{field}[{i}]", item)
-    return listed
-
-
-def robot(field: str, value):
-    """``value``, a :class:`~somite.brain.genome.Genome` or a controller (``Zero()``,
-    ``Sine(...)``, ``Table(...)``, a compiled genome)."""
-    from .brain.controllers import GraphArrays, Sine, Table, Zero
-    from .brain.genome import Genome
-
-    return instance(field, value, (Genome, Zero, Sine, Table, GraphArrays),
-                    "a Genome or a controller (somite.Zero(), somite.Sine(...), somite.Table(...))")
-
-
-def backend(field: str, value) -> str:
-    from .tasks.backends import check_backend
-
-    return check_backend(text(field, value))
-
-
-__all__ = ["NOISE_SEED_END", "SEED_END", "backend", "body", "flag", "genome", "genomes",
-           "instance", "integer", "is_integer", "is_real", "items", "named", "real", "robot",
-           "seeds", "sim_config", "terrain", "terrains", "text"]
+__all__ = ["NOISE_SEED_END", "SEED_END", "flag", "instance", "integer", "is_integer", "is_real",
+           "items", "named", "real", "seeds", "text"]

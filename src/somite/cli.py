@@ -22,7 +22,7 @@ import sys
 import threading
 
 from . import commands
-from .environment import check_environment
+from .commands._environment import check_environment
 from .errors import SomiteError, bad
 
 

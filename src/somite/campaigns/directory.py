@@ -249,7 +249,7 @@ def _grows(there: dict, doc: dict) -> bool:
 
 
 def finished(directory: Path, task: dict) -> bool:
-    return read_done(directory / task["path"], task["id"]) is not None
+    return read_done(directory / task["path"]) is not None
 
 
 def state(directory: Path, task: dict) -> dict:
@@ -264,7 +264,7 @@ def state(directory: Path, task: dict) -> dict:
             "done": None}
     if not folder.is_dir():
         return info
-    record = read_done(folder, task["id"])
+    record = read_done(folder)
     if record is not None:
         info["state"] = "done"
         info["done"] = record

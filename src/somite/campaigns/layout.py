@@ -19,15 +19,11 @@ MAX_FOLDER_NAME = 255
 """Bytes of one folder name (most file systems' limit)."""
 
 
-DONE_KEYS = ("task", "elapsed_s", "robot_control_steps", "finished")
-"""What a task's ``done.json`` holds (:func:`somite.campaigns.work.run_task` writes it)."""
-
-
-def read_done(folder: Path, task_id: str) -> dict | None:
-    """The ``done.json`` record of the task ``task_id`` in ``folder``; None when there is none
-    or it is not whole: not JSON (cut short by a kill or a full disk), not an object with
-    :data:`DONE_KEYS`, or another task's. Such a task is not finished: it runs again (every
-    kind resumes or redoes its work), and its record is written anew."""
+def read_done(folder: Path) -> dict | None:
+    """The ``done.json`` record of the task in ``folder``; None when there is none
+    or it is not whole: not JSON (cut short by a kill or a full disk), not a JSON object (the
+    probe's ``[]``). Such a task is not finished: it runs again (every kind
+    resumes or redoes its work), and its record is written anew."""
     from .._io import parse_json, read_text
 
     path = folder / DONE
@@ -37,9 +33,9 @@ def read_done(folder: Path, task_id: str) -> dict | None:
         data = parse_json(read_text(path, "done"), "done", str(path))
     except (OSError, ValueError):  # SomiteError is a ValueError
         return None
-    if not isinstance(data, dict) or set(DONE_KEYS) - data.keys() or data["task"] != task_id:
-        return None
-    return data
+    # Not compared with the task's id: a campaign's experiments may be renamed (their
+    # folders and ids with them) after their tasks finished.
+    return data if isinstance(data, dict) else None
 
 
 def at(where: str) -> str:

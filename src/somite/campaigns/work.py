@@ -31,7 +31,7 @@ def run_task(directory: str, task: dict, threads: int = 1, *needed) -> dict:
     how Dask orders it after them, and is not used."""
     out = Path(directory) / task["path"]
     done = out / DONE
-    record = read_done(out, task["id"])
+    record = read_done(out)
     if record is not None:
         return record
     # The campaign's lock keeps other campaigns out, and Dask runs a task once at a time: a

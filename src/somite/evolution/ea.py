@@ -166,7 +166,8 @@ class GraphEA:
         if population is not None:
             options["population"] = population
         self.config = GAConfig.from_options({**base, **options})
-        if start is not None and checks.genome("start", start).body != body:
+        if start is not None and checks.instance("start", start, Genome,
+                                                 "a somite Genome").body != body:
             raise bad("shape", start.body.shape.grid_string(),
                       f"the start genome's body differs from the EA's {body.shape.grid_string()}")
         seed = checks.integer("seed", seed, 0, checks.SEED_END - 1)

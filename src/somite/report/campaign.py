@@ -138,7 +138,7 @@ def _task(root: Path, item) -> Task:
         raise bad("campaign.tasks.options", options, "expected an object")
     folder = root / relative
     return Task(item["id"], item["experiment"], item["kind"], folder, tuple(needs), options,
-                read_done(folder, item["id"]) is not None)
+                read_done(folder) is not None)
 
 
 def task_row(task: Task, done: bool) -> dict:

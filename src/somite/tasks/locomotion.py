@@ -23,6 +23,7 @@ from ..sim.config import CONTROL_HZ, SimConfig, pack_params
 from ..sim.sensors import noise_table
 from ..sim.system import System, compile_system, pad
 from ..sim.terrain import Terrain
+from . import arguments
 from .backends import BACKENDS, get_backend
 from .episode import (
     D_FLIPPED,
@@ -210,7 +211,7 @@ def simulate_batch(
     ``noise_stream = "java-random-0"``). With ``record`` the trace also holds every step's
     corner positions, actuation, readings and contacts (``cpu`` backend only).
     """
-    config = checks.sim_config("config", config)
+    config = arguments.sim_config("config", config)
     bodies = checks.items("bodies", bodies, MAX_BATCH, least=1)
     n = len(bodies)
     for name, listed in (("terrains", terrains), ("controllers", controllers)):
@@ -219,9 +220,9 @@ def simulate_batch(
     terrains = [checks.instance(f"terrains[{i}]", t, Terrain, "a somite Terrain "
                                 "(somite.parse_terrain(name))") for i, t in enumerate(terrains)]
     record = checks.flag("record", record)
-    backend = checks.backend("backend", backend)
+    backend = arguments.backend("backend", backend)
     for i, body in enumerate(bodies):
-        checks.body(f"bodies[{i}]", body)
+        arguments.body(f"bodies[{i}]", body)
     check_batch(n, max(b.shape.n_voxels for b in bodies))
     system, ctrl, seeds = compile_batch(bodies, terrains, controllers, config, seeds)
     trace = run(system, ctrl, config, seeds, record, backend)
@@ -240,7 +241,7 @@ def compile_batch(
     n = len(bodies)
     seeds = checks.seeds("seeds", seeds, n)
     for b, (body, controller) in enumerate(zip(bodies, controllers)):
-        checks.body(f"bodies[{b}]", body)
+        arguments.body(f"bodies[{b}]", body)
         check_fits(f"controllers[{b}]", controller, body)
     system = compile_system(bodies, terrains, config.start_gap)
     ctrl = compile_controllers(controllers, [b.shape.n_voxels for b in bodies])

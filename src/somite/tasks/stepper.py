@@ -27,6 +27,7 @@ from ..sim.body import Body
 from ..sim.config import SimConfig, pack_params
 from ..sim.sensors import lidar_rays, noise_table
 from ..sim.terrain import Terrain
+from . import arguments
 from .episode import (
     STATUS_OK,
     Trace,
@@ -143,31 +144,31 @@ class Episode:
         record: bool = False,
         bodies: Sequence[Body] | None = None,
     ):
-        config = checks.sim_config("config", config)
+        config = arguments.sim_config("config", config)
         robots = checks.items("robots", robots, MAX_STEPPED)
         n = len(robots)
         if n == 0:
             raise bad("robots", [], "an episode needs one robot at least")
         record = checks.flag("record", record)
         for i, robot in enumerate(robots):
-            checks.robot(f"robots[{i}]", robot)
+            arguments.robot(f"robots[{i}]", robot)
         if bodies is None:
             for i, robot in enumerate(robots):
                 if not isinstance(robot, Genome):
-                    raise bad(f"robots[{i}]", robot,
-                              "a controller needs bodies=; a Genome carries its own")
+                    raise bad("bodies", None, f"robots[{i}] is a controller: controllers "
+                              "need bodies=; a Genome carries its own")
             bodies = [robot.body for robot in robots]
         else:
             bodies = checks.items("bodies", bodies, MAX_STEPPED)
             if len(bodies) != n:
                 raise bad("bodies", f"{len(bodies)} bodies", f"need one per robot ({n})")
             for i, (robot, body) in enumerate(zip(robots, bodies)):
-                checks.body(f"bodies[{i}]", body)
+                arguments.body(f"bodies[{i}]", body)
                 if isinstance(robot, Genome) and robot.body != body:
                     raise bad(f"bodies[{i}]", body.shape.grid_string(),
                               f"robots[{i}] is a genome of body {robot.body.shape.grid_string()}")
         seeds = checks.seeds("seeds", seeds, n)
-        worlds = checks.terrains("terrains", terrains, n, MAX_STEPPED)
+        worlds = arguments.terrains("terrains", terrains, n, MAX_STEPPED)
         check_batch(n, max(b.shape.n_voxels for b in bodies))
         controllers = [compile_genome(r) if isinstance(r, Genome) else r for r in robots]
         self.config = config

@@ -24,6 +24,7 @@ from ..sim.config import CONTROL_HZ, SimConfig
 from ..sim.config import PRESETS as SIM_PRESETS
 from ..sim.config import preset as sim_preset
 from ..sim.terrain import Terrain
+from . import arguments
 from .distributions import TerrainDistribution, parse_distribution
 from .locomotion import Controller, Outcome, simulate_batch
 from .validation import VALIDATION_COUNT, ValidationSet
@@ -85,14 +86,14 @@ class Locomotion:
         sim: SimConfig | None = None,
         backend: str = "cpu",
     ) -> None:
-        self.backend = checks.backend("backend", backend)
+        self.backend = arguments.backend("backend", backend)
         self.terrains = (terrain if isinstance(terrain, TerrainDistribution)
                          else parse_distribution(checks.text("terrain", terrain)))
         # Checked even when ``sim`` replaces them: a bad value is never passed over in silence.
         duration = checks.real("duration", duration, 1 / CONTROL_HZ, MAX_DURATION)
         transient = checks.real("transient", transient, 0.0, MAX_DURATION)
         checks.text("preset", preset, list(SIM_PRESETS))
-        self.sim = (checks.sim_config("sim", sim) if sim is not None
+        self.sim = (arguments.sim_config("sim", sim) if sim is not None
                     else sim_preset(preset, duration=duration, transient=transient))
         self.evaluations = checks.integer("evaluations", evaluations, 1, MAX_EVALUATIONS)
         if not isinstance(validation, ValidationSet):
@@ -101,7 +102,7 @@ class Locomotion:
         if not self.terrains.is_random and self.terrains.name in self.validation.names:
             raise bad("terrain", terrain if isinstance(terrain, str) else self.terrains.name,
                       "a validation terrain cannot be a training terrain")
-        self.body = None if body is None else checks.body("body", body)
+        self.body = None if body is None else arguments.body("body", body)
 
     @property
     def validation_terrains(self) -> list[Terrain]:
@@ -113,7 +114,7 @@ class Locomotion:
                 f"evaluations={self.evaluations})")
 
     def _check(self, genomes: Sequence[Genome]) -> list[Genome]:
-        genomes = checks.genomes("genomes", genomes, MAX_BATCH)
+        genomes = arguments.genomes("genomes", genomes, MAX_BATCH)
         for genome in genomes:
             if self.body is not None and genome.body != self.body:
                 raise bad("shape", genome.body.shape.grid_string(),
@@ -201,9 +202,9 @@ def simulate(
     the sensor noise; ``backend`` is ``cpu`` or ``cuda``. For batches, see
     :func:`somite.tasks.locomotion.simulate_batch`.
     """
-    checks.robot("robot", robot)
+    arguments.robot("robot", robot)
     if body is not None:
-        checks.body("body", body)
+        arguments.body("body", body)
     if isinstance(robot, Genome):
         if body is not None and body != robot.body:
             raise bad("body", body.shape.grid_string(), "differs from the genome's own body")
@@ -212,15 +213,15 @@ def simulate(
         raise bad("body", None, "a controller needs body=; a Genome carries its own")
     else:
         controller = robot
-    world = checks.terrain("terrain", terrain)
+    world = arguments.terrain("terrain", terrain)
     # Checked even when ``sim`` replaces them: a bad value is never passed over in silence.
     duration = checks.real("duration", duration, 1 / CONTROL_HZ, MAX_DURATION)
     checks.text("preset", preset, list(SIM_PRESETS))
-    config = (checks.sim_config("sim", sim) if sim is not None
+    config = (arguments.sim_config("sim", sim) if sim is not None
               else sim_preset(preset, duration=duration))
     seed = checks.integer("seed", seed, 0, checks.SEED_END - 1)
     [outcome], _ = simulate_batch([body], [world], [controller], config, seeds=seed,
-                                  backend=checks.backend("backend", backend))
+                                  backend=arguments.backend("backend", backend))
     return outcome
 
 

@@ -2,7 +2,7 @@
 
 Numba refuses ``NUMBA_NUM_THREADS=0`` and matplotlib an ``MPLBACKEND`` it does not know, each
 with a traceback from deep inside an import; the command line checks them before anything
-is imported and says so in one line (``somite simulate: error: NUMBA_NUM_THREADS='0': ...``).
+is imported and says so in one line (``somite: error: NUMBA_NUM_THREADS='0': ...``).
 """
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 
-from .errors import bad
+from ..errors import bad
 
 MAX_THREADS = 1024
 """The most threads ``NUMBA_NUM_THREADS`` may ask for: somite starts one thread per share of
@@ -31,11 +31,9 @@ def check_environment(environ: Mapping[str, str] | None = None) -> None:
                       "(or unset: one a core)")
     backend = environ.get("MPLBACKEND")
     if backend:
-        try:
-            import matplotlib  # noqa: F401 - matplotlib reads MPLBACKEND at import
-        except ValueError:
-            raise bad("MPLBACKEND", backend, "not a backend matplotlib knows; somite draws "
-                      "into files and needs none: unset it (or set it to agg)") from None
+        from ..viz.mplbackend import check_mplbackend
+
+        check_mplbackend(backend)
 
 
 __all__ = ["MAX_THREADS", "check_environment"]

@@ -37,14 +37,9 @@ def genomes(worm, biped):
     return initial_genome(worm, rng), initial_genome(biped, rng)
 
 
-def refused(field: str, build, kind=SomiteError) -> str:
-    """``build()`` raises a one-line ``kind`` naming ``field`` first."""
-    with pytest.raises(kind) as info:
-        build()
-    message = str(info.value)
-    assert message.startswith(f"{field}="), message
-    assert "\n" not in message
-    return message
+refused = expect_error
+"""``refused(field, build[, kind])``: ``build()`` raises a one-line SomiteError (or ``kind``)
+naming ``field`` first."""
 
 
 # -- 1. a body/controller mismatch never reaches the kernel -----------------------------------

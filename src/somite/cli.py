@@ -228,7 +228,12 @@ def main(argv: list[str] | None = None) -> int:
         code = _main(argv)
     finally:
         for number, before in previous.items():
-            signal.signal(number, signal.SIG_DFL if before is None else before)
+            if argv is None and handler.signalled:
+                # The program is stopping: a signal after the first still must not kill it
+                # with another exit code, nor raise on its way out.
+                signal.signal(number, signal.SIG_IGN)
+            else:
+                signal.signal(number, signal.SIG_DFL if before is None else before)
     if argv is None and code in (EXIT_INTERRUPTED, EXIT_TERMINATED) and _helpers_running():
         for stream in (sys.stdout, sys.stderr):
             try:

@@ -13,6 +13,7 @@ import subprocess
 import sys
 import threading
 from dataclasses import fields
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -468,3 +469,22 @@ def test_a_garbled_transfer_csv_is_refused(tmp_path, text):
     (tmp_path / "transfer.csv").write_text(text)
     with pytest.raises(SomiteError, match="transfer"):
         read_transfer(tmp_path)
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="Linux's /proc")
+def test_a_killed_reports_staging_folder_goes_at_the_next_report(tmp_path):
+    """The probe killed a report and started it again at once: the killed process was not
+    reaped yet (a zombie), so its hidden folder was taken for a live report's and stayed."""
+    from somite.report.staging import _remove_abandoned
+
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    staging = tmp_path / f".report.{child.pid}.0123abcd.new"
+    staging.mkdir()
+    _remove_abandoned(tmp_path)
+    assert staging.is_dir()  # its report is running
+    child.kill()
+    while Path(f"/proc/{child.pid}/stat").read_text().split(") ")[1][:1] not in "ZX":
+        threading.Event().wait(0.01)
+    _remove_abandoned(tmp_path)  # killed, not yet reaped by its parent (this test)
+    assert not staging.exists()
+    child.wait()

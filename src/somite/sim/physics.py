@@ -794,6 +794,25 @@ def ground_polygon(xs, ys, i, poly):
 
 
 @njit(inline="always")
+def above_segment(xs, ys, i, poly):
+    """Whether the quadrilateral ``poly`` lies wholly above the line of terrain segment i, so
+    that the separating-axis test of it against the ground under the segment
+    (:func:`deepest_axis` of :func:`ground_polygon`) would find them apart: that test's own
+    arithmetic for the segment's face, done alone (most blocks near the ground are above the
+    segments their bounding boxes reach)."""
+    ex = xs[i] - xs[i + 1]
+    ey = ys[i] - ys[i + 1]
+    length = math.sqrt(ex * ex + ey * ey)
+    ax = ey / length
+    ay = -ex / length
+    top = ax * xs[i + 1] + ay * ys[i + 1]
+    low = 1e300
+    for q in range(4):
+        low = min(low, ax * poly[q, 0] + ay * poly[q, 1])
+    return top - low <= 0.0
+
+
+@njit(inline="always")
 def deepest_axis(one, two):
     """The separating-axis test of two convex quadrilaterals: (overlap, nx, ny) with the
     normal of least penetration, from ``one`` towards ``two`` (ties to ``one``'s faces);
@@ -1009,7 +1028,7 @@ def find_contacts(robot, ground, scratch, pos, params):
         segment[p] = i
         left = min(left, i)
         while i < n - 1 and xs[i] < hi_x:
-            if lo_y < max(ys[i], ys[i + 1]):
+            if lo_y < max(ys[i], ys[i + 1]) and not above_segment(xs, ys, i, two):
                 ground_polygon(xs, ys, i, one)
                 if add_contacts(robot, scratch, pos, p, -1, i, one, two, params.friction) > 0:
                     scratch.contact[p] = True

@@ -125,8 +125,11 @@ def analyse_gait(recording) -> Gait:
     voxels = body.shape.voxels
     n_voxels = len(voxels)
     rows = len(recording.actuation)
-    first = config.transient_steps if rows - config.transient_steps >= 2 * CONTROL_HZ else 0
-    first = min(first, max(rows - 2, 0))
+    # The steps after the transient (after step 0, the state before any control, when the
+    # episode is too short for a transient): n_steps - transient_steps samples, whole seconds
+    # when the durations are.
+    first = config.transient_steps if rows - config.transient_steps > 2 * CONTROL_HZ else 0
+    first = min(first + 1, max(rows - 2, 0))
     act = np.asarray(recording.actuation[first:], dtype=np.float64).T  # (V, T)
     n = act.shape[1]
     freqs = np.fft.rfftfreq(max(n, 2), d=1.0 / CONTROL_HZ)
@@ -148,7 +151,7 @@ def analyse_gait(recording) -> Gait:
     contact = np.asarray(recording.contact[first:], dtype=bool)
     corners = np.asarray(recording.corners)
     duty = contact[:, corners].any(axis=2).mean(axis=0) if len(contact) else np.zeros(n_voxels)
-    com = np.asarray(recording.com[first:], dtype=np.float64)
+    com = np.asarray(recording.com[max(first - 1, 0):], dtype=np.float64)
     if len(com) > 2:
         vx = np.diff(com[:, 0]) * CONTROL_HZ
         stride_spectrum = np.interp(freqs, np.fft.rfftfreq(len(vx), 1.0 / CONTROL_HZ),
@@ -170,8 +173,8 @@ def analyse_gait(recording) -> Gait:
     )
     velocity = float(recording.velocity)
     pattern, words = describe_gait(rows_out, main, velocity)
-    return Gait(rows_out, main, stride, velocity, pattern, words, first / CONTROL_HZ,
-                rows / CONTROL_HZ if rows else 0.0, freqs, spectra, stride_spectrum)
+    return Gait(rows_out, main, stride, velocity, pattern, words, max(first - 1, 0) / CONTROL_HZ,
+                (rows - 1) / CONTROL_HZ if rows else 0.0, freqs, spectra, stride_spectrum)
 
 
 def _listing(numbers: list[int]) -> str:

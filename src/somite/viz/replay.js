@@ -5,7 +5,7 @@
   var DATA = JSON.parse(document.getElementById("somite-data").textContent);
   var S = DATA.style;
   var HZ = S.hz;
-  var VIEW_W = 720, VIEW_H = 405, BRAIN_W = 300;
+  var VIEW_W = 720, VIEW_H = 405, BRAIN_PAD = 16, BRAIN_TITLE = 18;
 
   function bytes(b64) {
     var bin = atob(b64), out = new Uint8Array(bin.length);
@@ -197,11 +197,13 @@
     var c = end.map(function (e) { return Math.round(255 + (e - 255) * t); });
     return "rgb(" + c.join(",") + ")";
   }
+  // Pixels per voxel of the controller panel: 60, less for a body wider than 7 or taller than 6.
+  function brainUnit(r) { return Math.min(60, 420 / r.width, 360 / r.height); }
   function paintBrain(ctx, r, k, w, h) {
     var b = r.brain;
     ctx.fillStyle = "#ffffff"; ctx.fillRect(0, 0, w, h);
-    var pad = 16, unit = Math.min((w - 2 * pad) / r.width, (h - 2 * pad - 18) / r.height);
-    var ox = (w - unit * r.width) / 2, oy = pad + 18;
+    var pad = BRAIN_PAD, unit = brainUnit(r);
+    var ox = (w - unit * r.width) / 2, oy = pad + BRAIN_TITLE;
     function at(xy) { return [ox + xy[0] * unit, oy + (r.height - xy[1]) * unit]; }
     ctx.lineWidth = 1; ctx.strokeStyle = "#555555"; ctx.fillStyle = "#f4f1e8";
     b.quads.forEach(function (quad) {
@@ -250,7 +252,9 @@
     var brain = null;
     if (r.brain) {
       brain = document.createElement("canvas");
-      brain.width = BRAIN_W; brain.height = VIEW_H; brain.id = "brain" + i;
+      brain.width = Math.max(340, Math.ceil(brainUnit(r) * r.width + 2 * BRAIN_PAD));
+      brain.height = Math.ceil(brainUnit(r) * r.height + 2 * BRAIN_PAD + BRAIN_TITLE);
+      brain.id = "brain" + i;
       div.appendChild(brain);
     }
     var meta = document.createElement("div");
@@ -300,7 +304,7 @@
         paintRobot(ctx, v, r, k, opts);
         paintText(ctx, v, r, k, ghosts ? r.terrain + " (others as ghosts)" : "");
       }
-      if (vw.brain) paintBrain(vw.brain.getContext("2d"), r, k, BRAIN_W, VIEW_H);
+      if (vw.brain) paintBrain(vw.brain.getContext("2d"), r, k, vw.brain.width, vw.brain.height);
       var x = r.com[2 * k], vel = velocityAt(r, k);
       vw.readout.textContent = "t = " + (k / HZ).toFixed(3) + " s   x = " + x.toFixed(3) +
         " m   v_x = " + vel.toFixed(3) + " m/s   step " + k + "/" + (r.steps - 1);

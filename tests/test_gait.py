@@ -57,7 +57,7 @@ def test_a_travelling_wave_is_named_with_its_direction(velocity, words):
     gait = analyse_gait(made_up(act, velocity=velocity))
     assert gait.frequency == pytest.approx(2.0)
     assert gait.still == []
-    assert gait.description.startswith(f"travelling wave {words} at 2.0 Hz (12 of 12 voxels)")
+    assert gait.description.startswith(f"travelling wave {words} at 2 Hz (12 of 12 voxels)")
     # Phases relative to the back voxels fall by 1 rad a column.
     for v in gait.voxels:
         assert math.cos(v.phase + v.x) == pytest.approx(1.0, abs=1e-6)

@@ -51,7 +51,7 @@ def _every_somite_command() -> list[list[str]]:
 
 def test_the_readme_shows_commands_of_every_kind():
     used = {argv[0] for argv in _every_somite_command()}
-    assert used >= {"simulate", "evolve", "evaluate", "show", "draw", "plot", "reassemble",
+    assert used >= {"simulate", "evolve", "evaluate", "show", "gait", "draw", "plot", "reassemble",
                     "reoptimize", "discover", "module", "assemble", "campaign", "report"}
 
 
@@ -71,7 +71,8 @@ def test_the_tutorial_runs_from_an_empty_folder(tmp_path, monkeypatch, capsys):
         assert words[0] == "somite", line
         assert main(words[1:]) == 0, line
     capsys.readouterr()
-    for made in ("runs/worm-0/best.json", "walk.gif", "strip.png", "brain.png", "runs.png",
+    for made in ("runs/worm-0/best.json", "walk.gif", "strip.png", "compare.html", "slow.gif",
+                 "gait.png", "brain.png", "runs.png",
                  "reasm/report.json", "reopt/transfer.csv", "modules/partition.json",
                  "lib/back.json", "robot/assembled.json", "report-smoke/index.md"):
         assert (tmp_path / "tour" / made).is_file(), made

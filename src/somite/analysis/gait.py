@@ -10,8 +10,8 @@ of the episode (after the transient):
   still (swings less than :data:`STILL_AMPLITUDE`), and its duty factor (the share of steps in
   which one of its corners touches the ground);
 - the robot's main actuation frequency (the peak of the summed spectra of the moving voxels)
-  and the stride frequency of its centre of mass (the peak of the spectrum of its horizontal
-  velocity);
+  and the stride frequency of its centre of mass (the peak, from :data:`MIN_STRIDE_HZ` up, of
+  the spectrum of its horizontal velocity, its linear trend removed);
 - a pattern and a one-line description: a few voxels vibrating while the rest hold a pose,
   a travelling wave (back to front or front to back), voxels pulsing together or in two
   alternating groups, or no simple pattern.
@@ -39,6 +39,8 @@ STANDING = 0.05
 MIN_WAVE = math.pi / 3
 """Phase change [rad] across the body from which a coherent phase slope is a travelling wave."""
 COHERENT = 0.8
+MIN_STRIDE_HZ = 0.5
+"""The stride frequency is looked for from here up: slower changes of v_x are drift."""
 """How well the phases must follow a line (the length of the mean residual phasor, 0..1)."""
 
 
@@ -154,9 +156,12 @@ def analyse_gait(recording) -> Gait:
     com = np.asarray(recording.com[max(first - 1, 0):], dtype=np.float64)
     if len(com) > 2:
         vx = np.diff(com[:, 0]) * CONTROL_HZ
+        time = np.arange(len(vx))
+        vx = vx - np.polyval(np.polyfit(time, vx, 1), time)  # the drift out
         stride_spectrum = np.interp(freqs, np.fft.rfftfreq(len(vx), 1.0 / CONTROL_HZ),
                                     _spectrum(vx, len(vx)))
-        stride = float(freqs[int(np.argmax(stride_spectrum[1:])) + 1])
+        band = np.flatnonzero(freqs >= MIN_STRIDE_HZ)
+        stride = float(freqs[band[np.argmax(stride_spectrum[band])]]) if len(band) else 0.0
     else:
         stride_spectrum, stride = np.zeros(len(freqs)), 0.0
     rows_out = tuple(
@@ -183,7 +188,8 @@ def _listing(numbers: list[int]) -> str:
 
 
 def _hz(f: float) -> str:
-    return f"{f:.1f} Hz" if f < 10 else f"{f:.0f} Hz"
+    text = f"{f:.1f}" if f < 9.95 else f"{f:.0f}"
+    return f"{text.removesuffix('.0')} Hz"
 
 
 def describe_gait(voxels: tuple[VoxelGait, ...], main: float, velocity: float
@@ -200,15 +206,21 @@ def describe_gait(voxels: tuple[VoxelGait, ...], main: float, velocity: float
     if not moving:
         return "still", f"every voxel holds a pose; {motion}"
     if len(moving) <= max(1, int(FEW_MOVING * len(voxels))):
-        fast = main >= VIBRATION_HZ
-        ids = _listing([v.voxel for v in moving])
-        verb = ("vibrates" if fast else "swings") if len(moving) == 1 else (
-            "vibrate" if fast else "swing")
-        noun = "voxel" if len(moving) == 1 else "voxels"
+        # Each moving voxel at its own frequency, those at the same one named together.
+        groups: dict[str, list[int]] = {}
+        for v in sorted(moving, key=lambda v: (-v.frequency, v.voxel)):
+            groups.setdefault(_hz(v.frequency), []).append(v.voxel)
+        fast = any(v.frequency >= VIBRATION_HZ for v in moving)
+        parts = []
+        for hz, ids in groups.items():
+            quick = float(hz.split()[0]) >= VIBRATION_HZ
+            verb = ("vibrates" if quick else "swings") if len(ids) == 1 else (
+                "vibrate" if quick else "swing")
+            parts.append(f"{'voxel' if len(ids) == 1 else 'voxels'} {_listing(ids)} {verb} "
+                         f"at {hz}")
         rest = ", the rest hold a pose" if len(moving) < len(voxels) else ""
         how = f"progress by vibration, {motion}" if fast and abs(velocity) >= STANDING else motion
-        return ("vibration" if fast else "swing",
-                f"{noun} {ids} {verb} at {_hz(main)}{rest}; {how}")
+        return ("vibration" if fast else "swing", f"{', '.join(parts)}{rest}; {how}")
     x = np.array([v.x for v in moving], dtype=np.float64)
     phase = np.array([v.phase for v in moving])
     columns = np.unique(x)

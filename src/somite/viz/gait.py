@@ -14,7 +14,7 @@ from .brain import save_figure
 from .output import check_output
 
 GAIT_FORMATS = (".png", ".svg")
-HEAT_SECONDS = 4.0
+HEAT_SECONDS = 2.0
 """Seconds of actuation the heat map shows (the whole episode would blur a 10 Hz gait)."""
 
 

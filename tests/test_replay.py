@@ -207,3 +207,20 @@ def test_page_readout_and_screenshot(tmp_path, compare_page):
     sky = (np.abs(pixels - [236, 242, 248]).sum(axis=1) <= 3).mean()
     ground = (np.abs(pixels - [152, 141, 124]).sum(axis=1) <= 3).mean()
     assert sky > 0.05 and ground > 0.02
+
+
+def test_show_writes_one_page_for_several_genomes_and_says_their_gaits(tmp_path, capsys):
+    paths = []
+    for seed in (0, 1):
+        paths.append(tmp_path / f"worm{seed}.json")
+        initial_genome(WORM, np.random.default_rng(seed)).save(paths[-1])
+    out = tmp_path / "cmp.html"
+    assert main(["show", *map(str, paths), "--terrain", "flat", "--duration", "1",
+                 "--speed", "0.5", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert printed.count("gait: ") == 2 and f"wrote {out}" in printed
+    data = decoded_payload(out.read_text())
+    assert [r["name"] for r in data["runs"]] == ["worm0", "worm1"] and data["speed"] == 0.5
+    assert all(r["gait"] and r["terrain"] == "flat" for r in data["runs"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cmp.html", "worm0.json",
+                                                          "worm1.json"]

@@ -241,6 +241,12 @@
 
   // -- the page ---------------------------------------------------------------------------------
   var state = {step: 0, time: 0, playing: false, speed: 1, follow: true, fixed: null};
+  // The address's fragment: #t=SECONDS&speed=S&ghosts&act&play, and #probe for the tests.
+  var hash = {};
+  location.hash.replace(/^#/, "").split("&").forEach(function (part) {
+    var kv = part.split("="); if (kv[0]) hash[kv[0]] = kv.length > 1 ? kv[1] : "1";
+  });
+  var probing = Boolean(hash.probe);
   var $ = function (id) { return document.getElementById(id); };
   var box = $("runs"), views = [];
   runs.forEach(function (r, i) {
@@ -313,6 +319,7 @@
     });
     scrub.value = String(state.step);
     $("play").textContent = state.playing ? "pause" : "play";
+    if (probing) document.body.setAttribute("data-probe", JSON.stringify(probe()));
   }
 
   function seekStep(k) {
@@ -370,6 +377,7 @@
   function probe() {
     return runs.map(function (r) {
       var k = stepOf(r), pts = [];
+      if (state.playing) return {step: k, t: k / HZ, time: state.time, playing: true};
       for (var p = 0; p < r.points; p++) pts.push(point(r, k, p));
       return {step: k, t: k / HZ, x: r.com[2 * k], v: velocityAt(r, k), points: pts};
     });
@@ -377,15 +385,11 @@
   window.somiteReplay = {seek: seek, seekStep: seekStep, probe: probe, setSpeed: setSpeed,
                          runs: runs, state: state};
 
-  var hash = {};
-  location.hash.replace(/^#/, "").split("&").forEach(function (part) {
-    var kv = part.split("="); if (kv[0]) hash[kv[0]] = kv.length > 1 ? kv[1] : "1";
-  });
   setSpeed(DATA.speed);
   if (hash.speed) setSpeed(parseFloat(hash.speed));
   if (hash.ghosts) $("ghosts").checked = true;
   if (hash.act) $("act").checked = true;
   if (hash.t) seek(parseFloat(hash.t)); else draw();
-  if (hash.probe) document.body.setAttribute("data-probe", JSON.stringify(probe()));
+  if (hash.play) toggle();
   document.documentElement.setAttribute("data-ready", "1");
 })();

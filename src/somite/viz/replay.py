@@ -9,7 +9,7 @@ discs and lidar rays, the time and v_x. A panel beside each robot shows its cont
 (:mod:`somite.viz.brain`'s layout) with every node coloured by its activity at the step shown.
 
 Several episodes on one page play on one clock, each in its own view or, as ghosts, over the
-first one's. A 30 s worm episode makes a page of about 0.7 MB.
+first one's. A 30 s worm episode makes a page of 0.84 MB.
 
 The page keeps a small test hook: ``#t=SECONDS`` in its address shows that time, and ``#probe``
 writes the state shown (step, time, x, v_x, corner positions) into ``data-probe`` of ``<body>``,

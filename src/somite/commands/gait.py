@@ -10,28 +10,25 @@ from .common import (
     GENOME_RUN,
     add_options,
     add_simulation_options,
+    check_episodes,
     load_genome,
     print_json,
     settings_line,
     simulation_config,
     warn_whole_episode,
 )
-from .show import DEFAULT_TERRAIN
+from .show import DEFAULT_TERRAIN, add_terrain
 
 HELP = ("Simulate a genome (file or run directory) and summarise its gait: per voxel the "
         "actuation's frequency, swing, phase and ground contact, and one line of words.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..sim.terrain import TERRAIN_HELP
-
-    parser.add_argument("--terrain", default=None,
-                        help=f"{TERRAIN_HELP} (default: the run's training terrain when it was "
-                        f"one fixed terrain, else {DEFAULT_TERRAIN})")
+    add_terrain(parser)
     add_simulation_options(parser, layered=GENOME_RUN)
     parser.add_argument("--picture", default=None, metavar="PATH",
                         help="also draw the actuation heat map and spectra (.png or .svg)")
-    add_options(parser, "json", "genome")
+    add_options(parser, "json", "yes", "genome")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -47,6 +44,7 @@ def run(args: argparse.Namespace) -> int:
     origin = origin_of(args.genome)
     terrain = args.terrain or origin.fixed_terrain() or DEFAULT_TERRAIN
     config = simulation_config(args, origin)
+    check_episodes(1, config, genome.body, args.yes, "the episode")
     if not args.json:
         print(settings_line(args, config, origin, terrain))
         note_compiling()

@@ -46,10 +46,15 @@ HELP = ("Simulate a genome (file or run directory) and write an MP4/GIF video, a
 SHOW_FORMATS = OUTPUT_FORMATS + REPLAY_FORMATS
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
+def add_terrain(parser: argparse.ArgumentParser) -> None:
+    """``--terrain``, defaulting to the genome's run's fixed terrain (``somite show``, ``gait``)."""
     parser.add_argument("--terrain", default=None,
                         help=f"{TERRAIN_HELP} (default: the run's training terrain when it was "
                         f"one fixed terrain, else {DEFAULT_TERRAIN})")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_terrain(parser)
     add_simulation_options(parser, layered=GENOME_RUN)
     parser.add_argument("--out", default=None,
                         help="walk.mp4 or walk.gif (video), strip.png (time-lapse), walk.html "

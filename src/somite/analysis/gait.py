@@ -17,6 +17,8 @@ of the episode (after the transient):
   alternating groups, or no simple pattern.
 
 Numbers only: the picture is :func:`somite.viz.gait.draw_gait`.
+
+See docs/decisions.md, "Watching robots".
 """
 
 from __future__ import annotations

@@ -15,6 +15,8 @@ The page keeps a small test hook: ``#t=SECONDS`` in its address shows that time,
 writes the state shown (step, time, x, v_x, corner positions) into ``data-probe`` of ``<body>``,
 so that a headless browser's ``--dump-dom`` can read it back; errors are written into
 ``data-errors`` of ``<html>``.
+
+See docs/decisions.md, "Watching robots".
 """
 
 from __future__ import annotations

@@ -290,7 +290,8 @@
     var opts = {sensors: $("sensors").checked, act: $("act").checked, overlays: true};
     runs.forEach(function (r, i) {
       var vw = views[i], k = stepOf(r);
-      vw.div.style.display = ghosts && i > 0 ? "none" : "";
+      // As a ghost a run keeps its controller panel and readout; its own view is hidden.
+      vw.canvas.style.display = ghosts && i > 0 ? "none" : "";
       var ctx = vw.canvas.getContext("2d");
       var v = view(r, k, VIEW_W, VIEW_H);
       if (!state.follow) {

@@ -4,10 +4,12 @@ installed, and slow motion of videos."""
 from __future__ import annotations
 
 import base64
+import gc
 import json
 import re
 import shutil
 import subprocess
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -158,6 +160,21 @@ def test_gif_plays_for_the_duration_over_speed(tmp_path, worm_runs, speed, fps):
     real = short.n_steps / CONTROL_HZ / speed * 1000
     assert abs(sum(delays) - real) <= 500 / fps + 10
     assert set(delays) <= {10 * t for t in range(1, 10_000)}
+
+
+@pytest.mark.parametrize("speed", [0.25, 2.0])
+def test_mp4_has_duration_over_speed_times_fps_frames(tmp_path, worm_runs, speed):
+    import imageio.v3 as iio
+
+    _, _, sine = worm_runs
+    short = replace(sine, pos=sine.pos[:31], actuation=sine.actuation[:31],
+                    readings=sine.readings[:31], contact=sine.contact[:31], com=sine.com[:31])
+    out = write_episode(short, tmp_path / "slow.mp4", fps=20, width=48, height=32, speed=speed)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ResourceWarning)  # imageio-ffmpeg's reader's pipes
+        frames = iio.imread(out, index=None)
+        gc.collect()
+    assert len(frames) == round(0.5 / speed * 20)
 
 
 # -- in a browser -------------------------------------------------------------------------------

@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+import numpy as np
+
 from ..analysis.gait import analyse_gait
 from ..errors import bad
 from ..experiments.origin import origin_of
@@ -102,9 +104,14 @@ def run(args: argparse.Namespace) -> int:
     terrain = args.terrain or origins[0].fixed_terrain() or DEFAULT_TERRAIN
     configs = [simulation_config(args, origin) for origin in origins]
     for genome, config in zip(genomes, configs):
-        frames = (args.frames or DEFAULT_STRIP_FRAMES) if strip else (
-            0 if page else len(frame_steps(config.n_steps, args.fps, args.speed)))
-        _check_drawing(out, frames, width * height, config, genome.body, args.yes)
+        held = drawn = 0  # a page is drawn by the browser
+        if strip:
+            held = drawn = args.frames or DEFAULT_STRIP_FRAMES
+        elif not page:
+            # In slow motion a step shown by several frames is drawn once, held in each.
+            steps = frame_steps(config.n_steps, args.fps, args.speed)
+            held, drawn = len(steps), len(np.unique(steps))
+        _check_drawing(out, held, drawn, width * height, config, genome.body, args.yes)
     runs = []
     for path, genome, origin, config in zip(args.genome, genomes, origins, configs):
         print(settings_line(args, config, origin, terrain))
@@ -149,12 +156,13 @@ def _label(path: str) -> str:
     return target.name if target.is_dir() else target.stem
 
 
-def _check_drawing(out, frames: int, pixels: int, config, body, yes: bool) -> None:
+def _check_drawing(out, frames: int, drawn: int, pixels: int, config, body, yes: bool) -> None:
     """Refuse a drawing that would take more than the budget's hours (simulating and drawing
-    every frame) or whose held frames (a GIF's, a strip's tiles) would not fit in memory."""
+    ``drawn`` frames) or whose held ``frames`` (a GIF's, a strip's tiles) would not fit in
+    memory."""
     from ..budget import BYTES_PER_HELD_PIXEL, PIXELS_PER_SECOND, check_memory, check_time, hours
 
-    drawing = float(frames) * pixels / PIXELS_PER_SECOND / 3600
+    drawing = float(drawn) * pixels / PIXELS_PER_SECOND / 3600
     check_time(f"drawing {out.name}", hours(config.n_steps, body.shape.n_voxels, 1) + drawing,
                yes)
     if out.suffix.lower() in (".gif", ".png"):

@@ -208,6 +208,20 @@ def test_scrubbing_to_t_shows_the_robot_where_the_trace_has_it(tmp_path, worm_ru
 
 
 @needs_chromium
+def test_frame_keys_step_and_change_speed(tmp_path, compare_page):
+    steps = ["ArrowRight", "ArrowRight", "ArrowRight", "ArrowLeft", "shift%2BArrowRight"]
+    attrs, console = page_state(tmp_path, compare_page, f"t=0.5&probe&keys={','.join(steps)}")
+    assert attrs.get("data-ready") == "1" and "data-errors" not in attrs, console[-2000:]
+    assert json.loads(attrs["data-probe"])[0]["step"] == 30 + 3 - 1 + round(CONTROL_HZ)
+    more = ["End", "ArrowLeft", "%5D", "%5D"]  # "]": twice as fast
+    attrs, _ = page_state(tmp_path, compare_page, f"t=0.5&probe&speed=0.5&keys={','.join(more)}")
+    first, second = json.loads(attrs["data-probe"])
+    last = 2 * round(CONTROL_HZ)  # two seconds recorded
+    assert first["step"] == second["step"] == last - 1
+    assert first["speed"] == 2.0
+
+
+@needs_chromium
 def test_page_readout_and_screenshot(tmp_path, compare_page):
     done = browser(tmp_path, "--dump-dom", compare_page.resolve().as_uri() + "#t=0.5")
     assert done.returncode == 0, done.stderr[-2000:]

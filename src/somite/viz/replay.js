@@ -241,7 +241,8 @@
 
   // -- the page ---------------------------------------------------------------------------------
   var state = {step: 0, time: 0, playing: false, speed: 1, follow: true, fixed: null};
-  // The address's fragment: #t=SECONDS&speed=S&ghosts&act&play, and #probe for the tests.
+  // The address's fragment: #t=SECONDS&speed=S&ghosts&act&play, and #probe and #keys=...
+  // for the tests.
   var hash = {};
   location.hash.replace(/^#/, "").split("&").forEach(function (part) {
     var kv = part.split("="); if (kv[0]) hash[kv[0]] = kv.length > 1 ? kv[1] : "1";
@@ -354,14 +355,16 @@
     if (state.playing) requestAnimationFrame(tick);
   }
 
-  $("play").addEventListener("click", toggle);
+  // Blurred after a click, so that the space bar reaches the page's keys, not the button.
+  $("play").addEventListener("click", function () { toggle(); $("play").blur(); });
   scrub.addEventListener("input", function () { state.playing = false; seekStep(+scrub.value); });
   $("speed").addEventListener("change", function () { setSpeed(+$("speed").value); });
   $("follow").addEventListener("change", function () {
     state.follow = $("follow").checked; state.fixed = null; draw(); });
   ["sensors", "act", "ghosts"].forEach(function (id) { $(id).addEventListener("change", draw); });
   document.addEventListener("keydown", function (e) {
-    if (e.target && e.target.tagName === "INPUT" && e.target.type === "number") return;
+    // A focused control keeps its own keys (the scrubber's arrows move it one step too).
+    if (e.target && /^(INPUT|BUTTON|SELECT)$/.test(e.target.tagName)) return;
     var jump = e.shiftKey ? Math.round(HZ) : 1;
     if (e.key === " ") { toggle(); }
     else if (e.key === "ArrowRight") { state.playing = false; seekStep(state.step + jump); }
@@ -380,7 +383,8 @@
       var k = stepOf(r), pts = [];
       if (state.playing) return {step: k, t: k / HZ, time: state.time, playing: true};
       for (var p = 0; p < r.points; p++) pts.push(point(r, k, p));
-      return {step: k, t: k / HZ, x: r.com[2 * k], v: velocityAt(r, k), points: pts};
+      return {step: k, t: k / HZ, x: r.com[2 * k], v: velocityAt(r, k), speed: state.speed,
+              points: pts};
     });
   }
   window.somiteReplay = {seek: seek, seekStep: seekStep, probe: probe, setSpeed: setSpeed,
@@ -391,6 +395,13 @@
   if (hash.ghosts) $("ghosts").checked = true;
   if (hash.act) $("act").checked = true;
   if (hash.t) seek(parseFloat(hash.t)); else draw();
+  // #keys=ArrowRight,shift+ArrowLeft,...: key presses replayed through the page's handler.
+  if (hash.keys) decodeURIComponent(hash.keys).split(",").forEach(function (key) {
+    var shift = key.indexOf("shift+") === 0;
+    document.dispatchEvent(new KeyboardEvent("keydown", {key: shift ? key.slice(6) : key,
+                                                         shiftKey: shift, bubbles: true}));
+  });
+  if (hash.keys) draw();
   if (hash.play) toggle();
   document.documentElement.setAttribute("data-ready", "1");
 })();

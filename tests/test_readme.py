@@ -54,7 +54,7 @@ def _every_somite_command() -> list[list[str]]:
 
 def test_the_readme_shows_commands_of_every_kind():
     used = {argv[0] for argv in _every_somite_command()}
-    assert used >= {"simulate", "evolve", "evaluate", "show", "draw", "plot", "reassemble",
+    assert used >= {"simulate", "evolve", "evaluate", "show", "gait", "draw", "plot", "reassemble",
                     "reoptimize", "discover", "module", "assemble", "campaign", "report"}
 
 
@@ -87,7 +87,8 @@ def test_the_tutorial_runs_pasted_into_a_fresh_shell(tmp_path):
     result = subprocess.run(["bash", "-e", "-c", _block("tutorial", "sh")], cwd=tmp_path,
                             env=env, capture_output=True, text=True, timeout=3600)
     assert result.returncode == 0, (result.stdout[-2000:], result.stderr[-4000:])
-    for made in ("runs/worm-0/best.json", "walk.gif", "strip.png", "brain.png", "runs.png",
+    for made in ("runs/worm-0/best.json", "walk.gif", "strip.png", "compare.html", "slow.gif",
+                 "gait.png", "brain.png", "runs.png",
                  "reasm/report.json", "reopt/transfer.csv", "modules/partition.json",
                  "lib/back.json", "robot/assembled.json", "report-smoke/index.md"):
         assert (tmp_path / "tour" / made).is_file(), made

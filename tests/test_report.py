@@ -115,6 +115,9 @@ def test_every_section_and_figure_is_written(report):
     assert ("rq1", "biped") in strips and ("rq2-homo", "worm") in strips
     for strip in data["timelapse"]:
         assert (out / "figures" / strip["file"]).is_file()
+        page = (out / "figures" / strip["replay"]).read_text()
+        assert page.startswith("<!doctype html>") and strip["task"] in page
+        assert strip["gait"] and f"Gait: {strip['gait']}." in (out / "index.md").read_text()
 
 
 def test_figure3_stands_beside_the_papers_numbers(campaign, report):

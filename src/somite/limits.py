@@ -28,6 +28,10 @@ memory (:func:`somite.budget.check_batch`)."""
 MAX_FRAMES = 1_000
 """Tiles of a time-lapse strip."""
 MIN_FPS = 1.0
+MIN_SPEED = 0.05
+"""Slowest playback of a video or replay page (1/20 of real time)."""
+MAX_SPEED = 4.0
+"""Fastest playback of a video or replay page."""
 MAX_OMEGA = 1e100
 """The modularity bias omega (the paper's: 10)."""
 MAX_OPERATOR_WEIGHT = 1e6

@@ -43,9 +43,15 @@ from pathlib import Path
 import numpy as np
 
 from .. import formats
-from .._io import CHECK_PREFIX, TEMPORARY, check_output_file, check_output_folder, reason
-from .._io import write_atomic
-from ..errors import SomiteError, bad
+from .._io import (
+    CHECK_PREFIX,
+    TEMPORARY,
+    check_output_file,
+    check_output_folder,
+    reason,
+    write_atomic,
+)
+from ..errors import bad
 from ..experiments.history import THINNED, line_digest, thinned_line
 from ..experiments.lock import LOCK_NAME, RunLock
 from ..experiments.logfile import LOG_COLUMNS

@@ -158,7 +158,8 @@ def rendering(what: str, quiet: bool = False):
     if quiet:
         yield None
         return
-    with Waiting(what, total=0, unit="frames") as wait:  # the frames' count comes with the first frame
+    # The frames' count comes with the first frame.
+    with Waiting(what, total=0, unit="frames") as wait:
 
         def progress(done: int, total: int) -> None:
             wait.update(done=done, total=total)

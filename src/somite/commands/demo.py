@@ -14,7 +14,8 @@ from ._progress import rendering
 from .common import add_options, whole_int
 from .evolve import progress_bar, summarise
 
-HELP = "Evolve a worm on flat ground for 60 generations, render its best gait, plot the run."
+HELP = ("Evolve a worm on flat ground for 60 generations, render its best gait (a video and a "
+        "replay page), say in words what it does, plot the run.")
 
 DEMO = {"shape": "worm", "population": 48, "generations": 60, "duration": 20.0, "seed": 0,
         "terrain": "flat", "reevaluate_parents": False}
@@ -38,8 +39,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..analysis.gait import analyse_gait
     from ..viz.plots import plot_runs
-    from ..viz.video import render_episode
+    from ..viz.replay import ReplayRun, write_replay
+    from ..viz.video import record_episode, write_episode
 
     out = check_output_folder(args.out)
     run_dir = out / "run"
@@ -52,12 +55,17 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(recheck_line(ea.best_fitness, fresh, config.terrain))
         print(MEANING)
+    recording = record_episode(ea.best.body, ea.best, config.terrain, sim)
     with rendering("rendering the video", args.quiet) as progress:
-        video = render_episode(ea.best, out / "best.mp4", terrain_name=config.terrain,
-                               config=sim, progress=progress)
+        video = write_episode(recording, out / "best.mp4", progress=progress)
+    gait = analyse_gait(recording)
+    page = write_replay([ReplayRun(recording, ea.best, "demo best", gait.description)],
+                        out / "best.html", title="somite demo: the best worm")
     plot = plot_runs([run_dir], out / "run.png", group_by="shape")
     print(f"video of the best robot: {video}")
+    print(f"replay page (a browser): {page}")
     print(f"plot of the run:         {plot}")
+    print(f"gait of the best robot:  {gait.description}")
     return 0
 
 

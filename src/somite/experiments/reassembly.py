@@ -16,9 +16,9 @@ from .._io import make_folder, write_atomic
 from ..errors import bad
 from ..modules.reassembly import Take, paper_takes, reassemble, receiver_for
 from ..modules.transfer import transferability
-from .origin import origin_of
 from ..sim.partition import Partition
 from ..tasks.validation import VALIDATION_COUNT, validation_terrains
+from .origin import origin_of
 
 CSV_COLUMNS = (
     "module",

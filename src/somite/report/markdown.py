@@ -363,14 +363,16 @@ def _transfer(report: dict) -> list[str]:
 def _timelapse(report: dict) -> list[str]:
     lines = ["## Time-lapse of each experiment's best robot", "",
              "The robot with the highest validation v_x of each experiment and shape, on the "
-             "first validation terrain (6 snapshots over the episode, left to right).", ""]
+             "first validation terrain (6 snapshots over the episode, left to right); its "
+             "replay page (one HTML file, for a browser) plays the whole episode.", ""]
     if not report["timelapse"]:
         return lines + ["*No strip drawn.*", ""]
     for strip in report["timelapse"]:
         lines += [f"### {strip['experiment']}, {strip['shape']}: {strip['task']}", "",
                   f"Validation v_x {_n(strip['validation'])} m/s, logged {_n(strip['logged'])} "
                   f"m/s, on {strip['terrain']}.", "",
-                  f"![{strip['task']}]({FIGURES}/{strip['file']})", ""]
+                  f"![{strip['task']}]({FIGURES}/{strip['file']})", "",
+                  f"Gait: {strip['gait']}. [Replay page]({FIGURES}/{strip['replay']}).", ""]
     return lines
 
 

@@ -23,7 +23,7 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from ..errors import bad
-from ..limits import MIN_FPS
+from ..limits import MAX_SPEED, MIN_FPS, MIN_SPEED
 from ..sim.config import CONTROL_HZ, VOXEL_SIDE
 from ..sim.terrain import Terrain
 from .camera import View, follow_view
@@ -90,6 +90,7 @@ def render_frame(
     overlays: Sequence[Overlay] = (),
     supersample: int = 2,
     sensors: bool = True,
+    speed: float = 1.0,
 ) -> Frame:
     """Draw control step ``step`` of ``recording``.
 
@@ -108,6 +109,8 @@ def render_frame(
         Drawing resolution factor (1 = no antialiasing, fastest).
     sensors : bool
         Draw the readings' half discs (off under a brain overlay, which would hide them).
+    speed : float
+        The video's playback speed, written beside the time when it is not 1.
 
     Returns
     -------
@@ -128,7 +131,7 @@ def render_frame(
         _paint_sensors(draw, canvas_view, recording, step, quads)
     for overlay in overlays:
         overlay(draw, canvas_view, recording, step)
-    _paint_text(draw, canvas_view, recording, step)
+    _paint_text(draw, canvas_view, recording, step, speed)
     if supersample > 1:
         image = image.reduce(supersample)
     return Frame(step, step / CONTROL_HZ, image, view)
@@ -213,10 +216,12 @@ def _box(cx: float, cy: float, r: float) -> tuple[float, float, float, float]:
     return (cx - r, cy - r, cx + r, cy + r)
 
 
-def _paint_text(draw, view: View, recording: Recording, step: int) -> None:
+def _paint_text(draw, view: View, recording: Recording, step: int, speed: float = 1.0) -> None:
     size = max(11.0, view.height / view.pixel / 30) * view.pixel
     font = _font(size)
     text = f"t = {step / CONTROL_HZ:5.2f} s   v_x = {recording.velocity_at(step):+5.2f} m/s"
+    if speed != 1.0:
+        text += f"   ({speed:g}x)"
     pad = 0.4 * size
     box = draw.textbbox((pad, pad), text, font=font)
     draw.rectangle((box[0] - pad / 2, box[1] - pad / 2, box[2] + pad / 2, box[3] + pad / 2),
@@ -231,13 +236,23 @@ def _paint_text(draw, view: View, recording: Recording, step: int) -> None:
 # -- many frames --------------------------------------------------------------------------------
 
 
-def frame_steps(n_steps: int, fps: float) -> np.ndarray:
-    """Control steps shown by a video at ``fps`` (<= 60): round(duration * fps) frames, frame k
-    showing time k / fps; at 30 fps every other step."""
+def frame_steps(n_steps: int, fps: float, speed: float = 1.0) -> np.ndarray:
+    """Control steps shown by a video at ``fps`` (<= 60) played at ``speed`` times real time
+    (0.05 .. 4): round(duration / speed * fps) frames, frame k showing time k * speed / fps; at
+    30 fps and speed 1 every other step, at speed 0.25 each step for two frames."""
     if not MIN_FPS <= fps <= CONTROL_HZ:
         raise bad("fps", fps, f"must be in [{MIN_FPS:g}, {CONTROL_HZ:g}] (the control rate)")
-    n_frames = max(1, int(round(n_steps * fps / CONTROL_HZ)))
-    return np.minimum(np.round(np.arange(n_frames) * CONTROL_HZ / fps).astype(int), n_steps)
+    check_speed(speed)
+    n_frames = max(1, int(round(n_steps * fps / (CONTROL_HZ * speed))))
+    shown = np.round(np.arange(n_frames) * (CONTROL_HZ * speed / fps)).astype(int)
+    return np.minimum(shown, n_steps)
+
+
+def check_speed(speed: float) -> float:
+    """``speed`` if it is a playback speed somite offers, else a one-line error."""
+    if not MIN_SPEED <= speed <= MAX_SPEED:
+        raise bad("speed", speed, f"must be in [{MIN_SPEED:g}, {MAX_SPEED:g}] (times real time)")
+    return float(speed)
 
 
 def render_frames(
@@ -248,12 +263,16 @@ def render_frames(
     overlays: Sequence[Overlay] = (),
     supersample: int = 2,
     sensors: bool = True,
+    speed: float = 1.0,
 ) -> Iterator[Frame]:
-    """The frames of a video of ``recording`` at ``fps``, one at a time (see
-    :func:`frame_steps`)."""
-    for step in frame_steps(recording.n_steps, fps):
-        yield render_frame(recording, int(step), width, height, overlays=overlays,
-                           supersample=supersample, sensors=sensors)
+    """The frames of a video of ``recording`` at ``fps`` played at ``speed``, one at a time
+    (see :func:`frame_steps`); in slow motion a step shown by several frames is drawn once."""
+    previous = None
+    for step in frame_steps(recording.n_steps, fps, speed):
+        if previous is None or previous.step != step:
+            previous = render_frame(recording, int(step), width, height, overlays=overlays,
+                                    supersample=supersample, sensors=sensors, speed=speed)
+        yield previous
 
 
 __all__ = [
@@ -261,6 +280,7 @@ __all__ = [
     "Frame",
     "Overlay",
     "area_colour",
+    "check_speed",
     "frame_steps",
     "render_frame",
     "render_frames",

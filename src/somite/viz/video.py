@@ -84,9 +84,11 @@ def write_episode(
     genome: Genome | None = None,
     frames: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    speed: float = 1.0,
 ) -> Path:
-    """Draw ``recording`` into ``out_path``: ``.mp4`` or ``.gif`` (a video at ``fps``) or
-    ``.png`` (a strip of ``frames`` tiles, :data:`DEFAULT_STRIP_FRAMES` by default).
+    """Draw ``recording`` into ``out_path``: ``.mp4`` or ``.gif`` (a video at ``fps``, played
+    at ``speed`` times real time: 0.25 is slow motion, 4 times as long) or ``.png`` (a strip
+    of ``frames`` tiles, :data:`DEFAULT_STRIP_FRAMES` by default).
 
     ``width`` x ``height`` is the video's size (960 x 540 by default) or one tile's (320 x
     240). With ``genome``, the controller is drawn on the body. ``progress(done, total)`` is
@@ -107,9 +109,9 @@ def write_episode(
     # libx264 with yuv420p needs even sizes; rounding up here spares imageio's resize warning.
     w, h = (2 * ((n + 1) // 2) for n in frame_size(width, height, VIDEO_SIZE))
     images = (f.image for f in render_frames(recording, fps, w, h, overlays,
-                                             sensors=not overlays))
+                                             sensors=not overlays, speed=speed))
     if progress is not None:
-        images = _counted(images, len(frame_steps(recording.n_steps, fps)), progress)
+        images = _counted(images, len(frame_steps(recording.n_steps, fps, speed)), progress)
     return write_video(images, out_path, fps)
 
 
@@ -250,6 +252,7 @@ def render_episode(
     height: int | None = None,
     frames: int | None = None,
     progress: Callable[[int, int], None] | None = None,
+    speed: float = 1.0,
 ) -> Path:
     """Simulate ``genome`` on ``terrain_name`` and write the episode to ``out_path``.
 
@@ -277,6 +280,8 @@ def render_episode(
         Tiles of a ``.png`` strip.
     progress : callable, optional
         ``progress(done, total)`` after each video frame (:func:`write_episode`).
+    speed : float
+        Playback speed of a video, 0.05 (slow motion) to 4 times real time.
 
     Returns
     -------
@@ -291,7 +296,7 @@ def render_episode(
         config = config.with_options(duration=float(duration))
     recording = record_episode(genome.body, genome, terrain_name, config, seed)
     return write_episode(recording, out_path, fps, width, height,
-                         genome if brain else None, frames, progress)
+                         genome if brain else None, frames, progress, speed)
 
 
 __all__: Sequence[str] = [

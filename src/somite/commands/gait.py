@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..experiments.origin import origin_of
-from ._progress import note_compiling
+from ._progress import simulating
 from .common import (
     GENOME_RUN,
     add_options,
@@ -47,8 +47,9 @@ def run(args: argparse.Namespace) -> int:
     check_episodes(1, config, genome.body, args.yes, "the episode")
     if not args.json:
         print(settings_line(args, config, origin, terrain))
-        note_compiling()
-    recording = record_episode(genome.body, genome, terrain, config, args.seed)
+    # Progress on stderr, as every command's; with --json stdout stays the JSON alone.
+    with simulating(f"simulating {config.duration:g} s on {terrain}"):
+        recording = record_episode(genome.body, genome, terrain, config, args.seed)
     gait = analyse_gait(recording)
     if args.picture is not None:
         from ..viz.gait import draw_gait

@@ -261,3 +261,16 @@ def test_a_sub_env_that_blows_up_restarts_alone_while_the_others_go_on(monkeypat
         assert np.array_equal(obs[1], o) and reward[1] == r
     assert list(truncated) == [True, False, True] and list(infos["step"]) == [10, 6, 10]
     assert len(envs.unwrapped._batches) == 2
+
+
+def test_the_random_search_example_runs_on_a_tiny_budget(capsys):
+    import runpy
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "gym_random_search.py"
+    example = runpy.run_path(str(path))
+    result = example["main"](["--iterations", "2", "--directions", "2", "--duration", "0.5"])
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 2 and lines[0].startswith("iteration 0: v_x of theta ")
+    assert len(result["velocities"]) == 2 and all(map(math.isfinite, result["velocities"]))
+    assert result["theta"].shape == (12, 40 + 1) and result["theta"].any()

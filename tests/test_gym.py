@@ -274,3 +274,13 @@ def test_the_random_search_example_runs_on_a_tiny_budget(capsys):
     assert len(lines) == 2 and lines[0].startswith("iteration 0: v_x of theta ")
     assert len(result["velocities"]) == 2 and all(map(math.isfinite, result["velocities"]))
     assert result["theta"].shape == (12, 40 + 1) and result["theta"].any()
+
+
+def test_the_readmes_gymnasium_block_runs():
+    from .test_readme import _block
+
+    names: dict = {}
+    exec(compile(_block("gym", "python"), "README.md", "exec"), names)
+    assert names["info"]["step"] == 360 and not names["truncated"].any()
+    assert names["info"]["velocity"] == names["info"]["outcome"]["velocity"]
+    assert names["obs"].shape == (64, 40) and names["rewards"].shape == (64,)

@@ -84,8 +84,9 @@ class _RegisterWithGymnasium:
     """An import hook that registers ``somite/Locomotion-v0`` as soon as Gymnasium is imported.
 
     Registering imports Gymnasium (0.2-0.5 s), which ``import somite``, and so every command,
-    should not pay when no one uses it; this hook costs nothing until someone imports
-    gymnasium, after or before somite (then it registers at once), and removes itself then.
+    should not pay when no one uses it. The hook looks at nothing but the name of each module
+    imported until Gymnasium's, registers once Gymnasium's has run, and removes itself. When
+    Gymnasium was imported before somite, somite registers at once (below).
     """
 
     def find_spec(self, name, path=None, target=None):
@@ -99,7 +100,12 @@ class _RegisterWithGymnasium:
 
         def exec_then_register(module):
             exec_module(module)
-            import_module("somite.envs").register()
+            try:
+                import_module("somite.envs").register()
+            except Exception as error:  # a Gymnasium somite cannot use must still import
+                import warnings
+
+                warnings.warn(f"somite/Locomotion-v0 is not registered: {error}", stacklevel=2)
 
         spec.loader.exec_module = exec_then_register
         return spec

@@ -6,7 +6,8 @@ vector env (``gymnasium.make_vec(..., vectorization_mode="vector_entry_point")``
 ``--sizes`` N: robot-control-steps per second (one env step of N robots is N of them), over a
 whole episode from ``reset``. Against, at the same N, terrains and actions: ``somite.Episode``
 stepped with the actions (what the vector env calls once a step) and the compiled loop
-(``simulate_batch``, the cpu backend, the same actions replayed by a ``Table`` controller).
+(``simulate_batch``, the cpu backend, the same actions replayed by a ``Table`` controller); the
+single env against ``somite.Episode`` of one robot.
 The best of ``--repeats``, after a throw-away first run (compiling, or loading Numba's cache).
 Threads: Numba's (``NUMBA_NUM_THREADS``). Prints JSON.
 
@@ -61,12 +62,24 @@ def main() -> dict:
             env.step(action)
 
     seconds = _best(single, args.repeats)
+    env_settings = env.unwrapped.settings
+
+    def single_episode():
+        stepped = Episode([Zero()], env.unwrapped.terrain, env_settings.config,
+                          bodies=[env_settings.body])
+        for action in one:
+            stepped.step(action[None])
+
+    episode_seconds = _best(single_episode, args.repeats)
     result = {
         "benchmark": "gymnasium env steps per second (robot-control-steps per second)",
         "shape": "worm", "terrain": kwargs["terrain"], "duration_s": args.duration,
         "control_steps": n_steps, "threads": numba.get_num_threads(),
         "cpus": os.cpu_count(), "repeats": args.repeats,
-        "single_env": {"steps_per_second": round(n_steps / seconds)},
+        "single_env": {"steps_per_second": round(n_steps / seconds),
+                       "episode_steps_per_second": round(n_steps / episode_seconds),
+                       "env_us_per_step_over_episode": round(
+                           1e6 * (seconds - episode_seconds) / n_steps, 1)},
         "by_robots": [],
     }
     for n in args.sizes:

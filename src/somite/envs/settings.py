@@ -145,11 +145,11 @@ def rewards(x_before: np.ndarray, x_after: np.ndarray, ok: np.ndarray, k: int,
     (``k > transient_steps``), else 0; 0 for a robot that went non-finite (not ``ok``).
     Summed over the counted steps and divided by their number: the episode's v_x (paper eq. 2),
     as :func:`somite.simulate` gives it, to rounding."""
-    if k <= transient_steps:
-        return np.zeros(len(x_after))
-    with np.errstate(invalid="ignore"):
-        progress = (x_after - x_before) * CONTROL_HZ
-    return np.where(ok, progress, 0.0)
+    progress = np.zeros(len(x_after))
+    if k > transient_steps:
+        np.subtract(x_after, x_before, out=progress, where=ok)
+        progress *= CONTROL_HZ
+    return progress
 
 
 def velocities(x_start: np.ndarray, x_now: np.ndarray, ok: np.ndarray, k: int,
@@ -158,12 +158,12 @@ def velocities(x_start: np.ndarray, x_now: np.ndarray, ok: np.ndarray, k: int,
     :func:`~somite.tasks.locomotion.outcomes` computes it over [transient, duration] (so at the
     end it is the episode's v_x, bit for bit); NaN before the transient ends or for a robot that
     went non-finite."""
-    if k <= transient_steps:
-        return np.full(len(x_now), np.nan)
-    span = (k - transient_steps) / CONTROL_HZ
-    with np.errstate(invalid="ignore"):
-        velocity = (x_now - x_start) / span
-    return np.where(ok, velocity, np.nan)
+    velocity = np.full(len(x_now), np.nan)
+    if k > transient_steps:
+        span = (k - transient_steps) / CONTROL_HZ
+        np.subtract(x_now, x_start, out=velocity, where=ok)
+        np.divide(velocity, span, out=velocity, where=ok)
+    return velocity
 
 
 __all__ = ["EnvSettings", "rewards", "settings", "velocities"]

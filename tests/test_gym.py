@@ -82,6 +82,16 @@ def test_bad_steps_and_options_give_one_line():
     env.step(np.zeros(12))
     env.step(np.zeros(12))
     expect_error("step", lambda: env.step(np.zeros(12)))
+    envs = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point")
+    expect_error("step", lambda: envs.step(np.zeros((2, 12))))
+    envs.reset(seed=0)
+    expect_error("actions", lambda: envs.step(np.zeros(12)))
+    expect_error("num_envs", lambda: gym.make_vec(ENV_ID, num_envs=0,
+                                                  vectorization_mode="vector_entry_point"))
+    policy = somite.policy(evolved("worm", 0), n_envs=2)
+    expect_error("obs", lambda: policy(np.zeros(40), True))
+    expect_error("first", lambda: policy(np.zeros((2, 40)), [True] * 3))
+    expect_error("genome", lambda: somite.policy("best.json"))
 
 
 def test_same_seed_and_actions_give_the_same_episode_bit_for_bit():

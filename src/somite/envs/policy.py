@@ -61,7 +61,10 @@ class GenomePolicy:
         if rows.shape != (self.n_envs, self.n_readings):
             expected = (self.n_readings,) if self.n_envs == 1 else (self.n_envs, self.n_readings)
             raise bad("obs", f"shape {obs.shape}", f"must have shape {expected}")
-        starts = np.broadcast_to(np.asarray(first, dtype=bool), (self.n_envs,))
+        starts = np.asarray(first, dtype=bool)
+        if starts.shape not in ((), (self.n_envs,)):
+            raise bad("first", f"shape {starts.shape}", f"one bool, or one per env ({self.n_envs})")
+        starts = np.broadcast_to(starts, (self.n_envs,))
         graph = self.graph
         for e in range(self.n_envs):
             if starts[e]:

@@ -93,6 +93,8 @@ class LocomotionVectorEnv(VectorEnv):
         return self._observations(), self._infos()
 
     def step(self, actions):
+        if not self._batches:
+            raise bad("step", "before reset", "call reset() first")
         actions = np.asarray(actions, dtype=np.float64)
         if actions.shape != self.action_space.shape:
             raise bad("actions", f"shape {actions.shape}",

@@ -8,7 +8,8 @@ whole episode from ``reset``. Against, at the same N, terrains and actions: ``so
 stepped with the actions (what the vector env calls once a step) and the compiled loop
 (``simulate_batch``, the cpu backend, the same actions replayed by a ``Table`` controller); the
 single env against ``somite.Episode`` of one robot.
-The best of ``--repeats``, after a throw-away first run (compiling, or loading Numba's cache).
+The best of ``--repeats`` rounds, the workloads in turn within a round, after a throw-away
+first round (compiling, or loading Numba's cache).
 Threads: Numba's (``NUMBA_NUM_THREADS``). Prints JSON.
 
     python benchmarks/gym_env.py [--duration 10] [--sizes 16 64 256] [--repeats 2]
@@ -33,14 +34,23 @@ from somite.tasks.stepper import Episode
 ENV_ID = "somite/Locomotion-v0"
 
 
-def _best(work, repeats: int) -> float:
-    work()  # compile, or load the cache
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
+def _timed(work) -> float:
+    start = time.perf_counter()
+    work()
+    return time.perf_counter() - start
+
+
+def _best(works: dict, repeats: int) -> dict:
+    """The best time of each of ``works`` over ``repeats`` rounds, run in turn within a round
+    (a machine whose load drifts slows them alike), after a throw-away first round (compiling,
+    or loading Numba's cache)."""
+    for work in works.values():
         work()
-        times.append(time.perf_counter() - start)
-    return min(times)
+    times = {name: [] for name in works}
+    for _ in range(repeats):
+        for name, work in works.items():
+            times[name].append(_timed(work))
+    return {name: min(t) for name, t in times.items()}
 
 
 def main() -> dict:
@@ -61,7 +71,6 @@ def main() -> dict:
         for action in one:
             env.step(action)
 
-    seconds = _best(single, args.repeats)
     env_settings = env.unwrapped.settings
 
     def single_episode():
@@ -70,7 +79,8 @@ def main() -> dict:
         for action in one:
             stepped.step(action[None])
 
-    episode_seconds = _best(single_episode, args.repeats)
+    single_times = _best({"env": single, "episode": single_episode}, args.repeats)
+    seconds, episode_seconds = single_times["env"], single_times["episode"]
     result = {
         "benchmark": "gymnasium env steps per second (robot-control-steps per second)",
         "shape": "worm", "terrain": kwargs["terrain"], "duration_s": args.duration,
@@ -92,7 +102,7 @@ def main() -> dict:
             for step_actions in actions:
                 envs.step(step_actions)
 
-        vector_seconds = _best(vector, args.repeats)
+        envs.reset(seed=0)
         terrains = list(envs.unwrapped.terrains)
         settings = envs.unwrapped.settings
         body, config = settings.body, settings.config
@@ -109,8 +119,8 @@ def main() -> dict:
         def compiled():
             simulate_batch([body] * n, terrains, tables, config)
 
-        times = {"vector_env": vector_seconds, "episode_step": _best(episode, args.repeats),
-                 "compiled_loop": _best(compiled, args.repeats)}
+        times = _best({"vector_env": vector, "episode_step": episode, "compiled_loop": compiled},
+                      args.repeats)
         rate = {k: round(n * n_steps / v) for k, v in times.items()}
         result["by_robots"].append({
             "robots": n,

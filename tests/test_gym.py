@@ -294,3 +294,14 @@ def test_the_readmes_gymnasium_block_runs():
     assert names["info"]["step"] == 360 and not names["truncated"].any()
     assert names["info"]["velocity"] == names["info"]["outcome"]["velocity"]
     assert names["obs"].shape == (64, 40) and names["rewards"].shape == (64,)
+
+
+def test_the_benchmark_prints_the_json_that_benchmarks_md_quotes():
+    from .test_benchmarks import run_script
+
+    out = run_script("gym_env.py", "--duration", "0.1", "--sizes", "2", "--repeats", "1")
+    assert out["control_steps"] == 6 and out["single_env"]["steps_per_second"] > 0
+    [row] = out["by_robots"]
+    assert row["robots"] == 2
+    assert set(row["robot_control_steps_per_second"]) == {"vector_env", "episode_step",
+                                                          "compiled_loop"}

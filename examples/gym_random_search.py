@@ -1,7 +1,9 @@
 """Random search over a linear policy on somite's vector Gymnasium environment.
 
-The policy is a = tanh(W obs + b): one row of W and b a voxel, one column of W a sensor reading
-(``env.observation_names``). Each iteration draws ``--directions`` random directions d and runs
+The policy is a = tanh(W [obs, sin 2 pi f t, cos 2 pi f t] + b): one row of W and b a voxel, a
+column of W a sensor reading (``env.observation_names``) or one of the two clock features (a
+memoryless policy of the readings alone hardly starts a gait: the clock gives it a rhythm,
+which the readings can shape). Each iteration draws ``--directions`` random directions d and runs
 the current parameters and each theta + s d and theta - s d as one robot each of one vector
 environment, a whole episode (the robots of a vector env are stepped together, one compiled
 call a step); the episode's return (mean reward after the 5 s transient) is its v_x [m/s].
@@ -20,6 +22,9 @@ import numpy as np
 
 import somite  # noqa: F401  (registers somite/Locomotion-v0 with gymnasium)
 
+CLOCK_HZ = 2.0
+"""The clock features' frequency."""
+
 
 def episode_velocities(envs, thetas: np.ndarray, seed: int) -> np.ndarray:
     """Run one episode with robot i driven by the linear policy ``thetas[i]``; each robot's v_x
@@ -31,7 +36,9 @@ def episode_velocities(envs, thetas: np.ndarray, seed: int) -> np.ndarray:
     counted = np.zeros(envs.num_envs)
     done = np.zeros(envs.num_envs, dtype=bool)
     while not done.all():
-        actions = np.tanh(np.einsum("nvr,nr->nv", weights, obs) + biases)
+        phase = 2 * np.pi * CLOCK_HZ * info["time"]
+        features = np.column_stack([obs, np.sin(phase), np.cos(phase)])
+        actions = np.tanh(np.einsum("nvr,nr->nv", weights, features) + biases)
         obs, reward, terminated, truncated, info = envs.step(actions)
         live = ~done
         total[live] += reward[live]
@@ -48,8 +55,8 @@ def main(argv=None) -> dict:
     parser.add_argument("--duration", type=float, default=10.0)
     parser.add_argument("--shape", default="worm")
     parser.add_argument("--terrain", default="flat")
-    parser.add_argument("--step-size", type=float, default=0.05)
-    parser.add_argument("--noise", type=float, default=0.1)
+    parser.add_argument("--step-size", type=float, default=0.2)
+    parser.add_argument("--noise", type=float, default=0.5)
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
 
@@ -60,7 +67,7 @@ def main(argv=None) -> dict:
     n_voxels = envs.single_action_space.shape[0]
     n_readings = envs.single_observation_space.shape[0]
     rng = np.random.default_rng(args.seed)
-    theta = np.zeros((n_voxels, n_readings + 1))
+    theta = np.zeros((n_voxels, n_readings + 3))  # the readings, the clock, the bias
     history = []
     for iteration in range(args.iterations):
         directions = rng.standard_normal((args.directions, *theta.shape))

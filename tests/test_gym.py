@@ -283,7 +283,7 @@ def test_the_random_search_example_runs_on_a_tiny_budget(capsys):
     lines = capsys.readouterr().out.splitlines()
     assert len(lines) == 2 and lines[0].startswith("iteration 0: v_x of theta ")
     assert len(result["velocities"]) == 2 and all(map(math.isfinite, result["velocities"]))
-    assert result["theta"].shape == (12, 40 + 1) and result["theta"].any()
+    assert result["theta"].shape == (12, 40 + 3) and result["theta"].any()
 
 
 def test_the_readmes_gymnasium_block_runs():

@@ -28,9 +28,9 @@ import time
 import numba
 import numpy as np
 
-from somite._jit import njit
-from somite.sim.body import Body
+from somite._jit import njit, uncounted
 from somite.sim import joint_lanes
+from somite.sim.body import Body
 from somite.sim.config import SimConfig, pack_params
 from somite.sim.physics import J_IMPULSE, J_MASS, solve_springs
 from somite.sim.robot import new_scratch, robot_view
@@ -40,7 +40,7 @@ from somite.sim.terrain import parse_terrain
 ROBOTS = 96
 
 
-@njit(_nrt=False)
+@uncounted
 def per_robot(robot, scratches, vel, passes):
     for r in range(vel.shape[0]):
         for _ in range(passes):
@@ -70,7 +70,7 @@ def _spring(s, a, b, w, v, inv_mass, inv_inertia):
     v[b, 2] -= inv_inertia[b] * (rbx * jy - rby * jx)
 
 
-@njit(_nrt=False)
+@uncounted
 def interleaved(ends, work, vel, inv_mass, inv_inertia, passes, width):
     for g in range(0, vel.shape[0], width):
         for _ in range(passes):
@@ -81,7 +81,7 @@ def interleaved(ends, work, vel, inv_mass, inv_inertia, passes, width):
                     _spring(s, a, b, work[r], vel[r], inv_mass, inv_inertia)
 
 
-@njit(_nrt=False)
+@uncounted
 def lanes(ends, work, vel, inv_mass, inv_inertia, passes):
     # work (G, S, 10, W), vel (G, P, 3, W)
     width = vel.shape[3]
@@ -117,7 +117,7 @@ def lanes(ends, work, vel, inv_mass, inv_inertia, passes):
                     v[b, 2, k] -= iib * (rbx * jy - rby * jx)
 
 
-@njit(_nrt=False)
+@uncounted
 def vectorised(ends, work, vel, inv_mass, inv_inertia, passes):
     for g in range(vel.shape[0]):
         for _ in range(passes):

@@ -35,7 +35,12 @@ holds dyn4j's classes, so that a variant of the engine built beside them runs in
 (``benchmarks/reference/closed-loop/README.md`` says how to build it and why it matters: in
 2D-VSR-Sim that detection misfires against the terrain and throws blocks back);
 ``--export`` the export script (default
-``../shared/tools/closed-loop-2dvsrsim/export_genomes.py`` from the repository root). A ratio
+``../shared/tools/closed-loop-2dvsrsim/export_genomes.py`` from the repository root).
+``--campaign DIR`` (the runs being tasks of the campaign in DIR) also writes each run's last
+sampled generation into ``DIR/transfer.csv``, the file the transfer section of ``somite report``
+reads (``task,engine,generation,somite_vx,vsr_vx,ratio``; engine ``noccd`` when ``--dyn4j``
+names the build without continuous collision detection, else ``stock``): rows of other runs or
+of the other engine are kept, so running it once per engine fills the table. A ratio
 of speeds near zero is noise: look at the medians, and at ``somite_vx`` beside it.
 """
 
@@ -396,6 +401,49 @@ class _Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
+CAMPAIGN_COLUMNS = ("task", "engine", "generation", "somite_vx", "vsr_vx", "ratio")
+"""The columns of a campaign's ``transfer.csv`` (somite.report.transfer reads them)."""
+
+
+def engine_of(dyn4j: str) -> str:
+    """``noccd`` for a dyn4j build without continuous collision detection, else ``stock``."""
+    return "noccd" if "noccd" in Path(dyn4j).name else "stock"
+
+
+def campaign_rows(out: dict, campaign: Path, engine: str) -> list[dict]:
+    """A row of ``transfer.csv`` per run of ``out`` (:func:`transfer`'s result): its task (the
+    run's folder inside ``campaign``) and its last sampled generation's velocities and ratio."""
+    rows = []
+    root = campaign.resolve()
+    for run in out["runs"]:
+        folder = Path(run["run"]).resolve()
+        if root not in folder.parents:
+            raise bad("run", run["run"], f"is not a task folder of the campaign {campaign}")
+        last = run["generations"][-1]
+        rows.append({"task": folder.relative_to(root).as_posix(), "engine": engine,
+                     **{k: last.get(k) for k in CAMPAIGN_COLUMNS[2:]}})
+    return rows
+
+
+def write_campaign_csv(campaign: Path, rows: list[dict]) -> Path:
+    """Merge ``rows`` into ``campaign/transfer.csv`` (a row of the same task and engine
+    replaced, the others kept, sorted), written atomically."""
+    from somite._io import write_atomic
+
+    path = campaign / "transfer.csv"
+    kept = {}
+    if path.is_file():
+        for row in csv.DictReader(io.StringIO(read_text(path, "transfer"))):
+            kept[(row["task"], row["engine"])] = row
+    for row in rows:
+        kept[(row["task"], row["engine"])] = {k: "" if v is None else v for k, v in row.items()}
+    text = io.StringIO()
+    writer = csv.DictWriter(text, CAMPAIGN_COLUMNS, lineterminator="\n", extrasaction="ignore")
+    writer.writeheader()
+    writer.writerows(kept[key] for key in sorted(kept))
+    return write_atomic(path, text.getvalue())
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = _Parser(prog="transfer.py", description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", metavar="RUN", help="run directories")
@@ -418,10 +466,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--threads", type=int, default=2, help="the driver's THREADS (default 2)")
     parser.add_argument("--seed", type=int, default=0,
                         help="somite's noise seed (paper preset; original-code ignores it)")
+    parser.add_argument("--campaign", metavar="DIR",
+                        help="also write the runs' last sampled generation into "
+                        "DIR/transfer.csv (the report's transfer section); the runs are tasks "
+                        "of the campaign in DIR")
     args = parser.parse_args(argv)
     try:
+        if args.campaign is not None:  # before the driver runs: its minutes are not lost
+            campaign_rows({"runs": [{"run": r, "generations": [{}]} for r in args.runs]},
+                          Path(args.campaign), "")
         out = transfer(args.runs, args.every, args.start, parse_terrains(args.terrains),
                        args.vsr, args.export, args.threads, args.seed, args.dyn4j)
+        if args.campaign is not None:
+            write_campaign_csv(Path(args.campaign), campaign_rows(
+                out, Path(args.campaign), engine_of(args.dyn4j)))
     except SomiteError as error:
         sys.stderr.write(f"{parser.prog}: error: {error}\n")
         return 2

@@ -22,7 +22,7 @@ ARGS = ["evolve", "--shape", "worm", "--population", "4", "--generations", "4",
         "--checkpoint-every", "2", "--duration", "1", "--seed", "5", "--quiet"]
 MORE = ["--generations", "5", "--resume"]
 FILES = ("log.csv", "bests.jsonl", "checkpoint.json", "config.json", "best.json",
-         "manifest.json")
+         "manifest.json", "physics.json")
 LINED = ("log.csv", "bests.jsonl")
 """The files whose refusal names the line."""
 

@@ -102,3 +102,57 @@ def test_lanes_give_each_robot_the_one_robot_passes_numbers(shape, seed):
         assert np.array_equal(lanes.rope[live, :, g], scratch.rope[live], equal_nan=True), g
         assert np.array_equal(lanes.rope[~live, ph.R_IMPULSE, g], scratch.rope[~live,
                                                                            ph.R_IMPULSE])
+
+
+@pytest.mark.parametrize("shape", ["worm", "biped"])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_lanes_move_and_position_passes_match_the_one_robot_passes(shape, seed):
+    """The move and the rope limits' and welds' position passes in lanes: each busy lane ends
+    where the robot's own passes take it, rotations and "holds" included; a lane marked DONE
+    keeps its bodies (a robot whose passes are over must not move while others go on)."""
+    params = pack_params(SimConfig())
+    system = compile_system([Body.build(shape)], [parse_terrain("flat")])
+    robot = robot_view(system, 0, params)
+    pos, vel, _, _ = _states(robot, seed)
+    # Lane 4: bodies spun past +-pi against their weld partners (the angle wraps); lane 5:
+    # fast enough for the move's limits on translation and rotation.
+    pos[4, :, 2] = np.where(np.arange(robot.n_points) % 2, 3.1, -3.1)
+    vel[5] *= 1e4
+    width, p = jl.LANES, robot.n_points
+    lanes = jl.Lanes(
+        robot.ends.copy(), robot.anchor.copy(), robot.rope_ends.copy(), robot.weld_ends.copy(),
+        robot.weld_anchor.copy(), robot.inv_mass.copy(), robot.inv_inertia.copy(),
+        np.empty((p, 3, width)), np.empty((p, 3, width)), np.empty((p, width)),
+        np.empty((p, width)), np.zeros((robot.n_springs, width)),
+        np.zeros((robot.n_springs, ph.N_SPRING_COLUMNS, width)),
+        np.zeros((robot.n_ropes, ph.N_ROPE_COLUMNS, width)),
+        np.zeros((robot.n_welds, ph.N_WELD_COLUMNS, width)))
+    flags = np.zeros((width, 4), dtype=np.bool_)
+    flags[6, jl.DONE] = True
+    alone = []
+    for g in range(width):
+        scratch = new_scratch(robot)
+        own_pos, own_vel = pos[g].copy(), vel[g].copy()
+        jl.take(lanes, g, own_pos, own_vel, scratch.cos, scratch.sin)
+        ph.positions(robot, scratch, own_pos, own_vel, params)
+        held = []
+        for _ in range(PASSES):
+            held.append((ph.fix_ropes(robot, own_pos),
+                         ph.fix_welds(robot, own_pos, scratch.cos, scratch.sin)))
+        alone.append((own_pos, own_vel, scratch, held))
+    jl.move(lanes.pos, lanes.vel, lanes.cos, lanes.sin, params.dt)
+    moved = lanes.pos.copy()
+    held = []
+    for _ in range(PASSES):
+        jl.fix_joints(lanes, flags)
+        held.append(flags[:, [jl.ROPES_HELD, jl.WELDS_HELD]].copy())
+    assert not all(h for _, _, _, hs in alone for pair in hs for h in pair)  # passes worked
+    for g, (own_pos, own_vel, scratch, own_held) in enumerate(alone):
+        assert np.array_equal(lanes.vel[:, :, g], own_vel, equal_nan=True), g
+        if g == 6:
+            assert np.array_equal(lanes.pos[:, :, g], moved[:, :, g], equal_nan=True)
+            continue
+        assert np.array_equal(lanes.pos[:, :, g], own_pos, equal_nan=True), g
+        assert np.array_equal(lanes.cos[:, g], scratch.cos, equal_nan=True), g
+        assert np.array_equal(lanes.sin[:, g], scratch.sin, equal_nan=True), g
+        assert [tuple(h[g]) for h in held] == own_held, g

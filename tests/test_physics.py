@@ -80,11 +80,15 @@ def test_travelling_waves_move_the_worm_both_ways(worm):
     # (1.26 m/s on flat ground at 1 Hz, shared/reference).
     forward = _distance(worm, Sine(1.0, 1.0, -math.pi / 2))
     backward = _distance(worm, Sine(1.0, 1.0, math.pi / 2))
-    uniform = _distance(worm, Sine(1.0, 1.0, 0.0))
     assert forward > 2.0
     assert backward < -2.0
     assert 0.8 < -backward / forward < 1.25
-    assert abs(uniform) < 0.1 * forward
+    # A synchronous gait has no direction: it drifts by chaos, either way, by up to 3 m in
+    # 10 s for amplitudes and phases 1e-3 apart (BENCHMARKS.md), so its mean drift over a few.
+    gaits = [Sine(1.0, amp, phase) for amp in (1.0, 0.999, 0.995) for phase in (0.0, 1e-3)]
+    config = quiet(duration=10.0, start_gap=100.0)
+    outcomes, _ = simulate_batch([worm] * len(gaits), [FLAT] * len(gaits), gaits, config)
+    assert np.mean([abs(o.distance) for o in outcomes]) < 0.1 * forward
 
 
 def test_uphill_gives_less_headway(worm):

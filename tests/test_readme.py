@@ -1,17 +1,20 @@
-"""The README teaches what works: its tutorial runs as a script from an empty folder, every
-``somite`` command it shows parses, and its Python block runs."""
+"""The README teaches what works: its tutorial runs pasted into a new shell right after
+``make demo``, every ``somite`` command it shows parses, and its Python block runs."""
 
 from __future__ import annotations
 
 import re
 import shlex
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
-from somite.cli import build_parser, main
+from somite.cli import build_parser
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
 
 
 def _block(marker: str, language: str) -> str:
@@ -60,21 +63,36 @@ def test_every_readme_command_parses(argv):
     build_parser().parse_args(argv)  # an unknown option or a bad choice exits with 2
 
 
-def test_the_tutorial_runs_from_an_empty_folder(tmp_path, monkeypatch, capsys):
-    monkeypatch.chdir(tmp_path)
+ACTIVATE = ". .venv/bin/activate"
+"""The tutorial's first line: ``make demo`` installs into .venv without activating it."""
+
+
+def test_make_demo_ends_with_the_tutorial_s_first_line():
     commands = _commands(_block("tutorial", "sh"))
-    assert commands[0] == "mkdir tour && cd tour"
-    (tmp_path / "tour").mkdir()
-    monkeypatch.chdir(tmp_path / "tour")
-    for line in commands[1:]:
-        words = shlex.split(line)
-        assert words[0] == "somite", line
-        assert main(words[1:]) == 0, line
-    capsys.readouterr()
+    assert commands[:2] == [ACTIVATE, "mkdir tour && cd tour"]
+    makefile = (ROOT / "Makefile").read_text()
+    assert "VENV := .venv\n" in makefile and "BIN := $(VENV)/bin\n" in makefile
+    recipe = makefile[makefile.index("\ndemo:"):].split("\n\n")[0].splitlines()
+    assert recipe[-1].endswith(" . $(BIN)/activate\"") and "echo" in recipe[-1], recipe
+
+
+def test_the_tutorial_runs_pasted_into_a_fresh_shell(tmp_path):
+    """The block as written, by bash, in a shell that has nothing of the tests' environment:
+    the PATH of a new login (no somite on it), in a folder holding the clone's .venv."""
+    venv = Path(sys.prefix)
+    if not (venv / "bin" / "activate").is_file():
+        pytest.skip("the tests do not run in a virtual environment (make test makes one)")
+    (tmp_path / ".venv").symlink_to(venv)
+    env = {"HOME": str(tmp_path), "PATH": "/usr/local/bin:/usr/bin:/bin", "LANG": "C.UTF-8"}
+    result = subprocess.run(["bash", "-e", "-c", _block("tutorial", "sh")], cwd=tmp_path,
+                            env=env, capture_output=True, text=True, timeout=3600)
+    assert result.returncode == 0, (result.stdout[-2000:], result.stderr[-4000:])
     for made in ("runs/worm-0/best.json", "walk.gif", "strip.png", "brain.png", "runs.png",
                  "reasm/report.json", "reopt/transfer.csv", "modules/partition.json",
                  "lib/back.json", "robot/assembled.json", "report-smoke/index.md"):
         assert (tmp_path / "tour" / made).is_file(), made
+    # What it printed is what the README says it prints: v_x and the inherited settings.
+    assert "settings: training on flat (from " in result.stdout, result.stdout
 
 
 def test_the_python_block_runs():

@@ -21,7 +21,7 @@ SECTIONS = ("## Tasks", "## Table 1", "## Figure 3", "## Figure 10", "## Figure 
             "## Figure 11", "### Figure 7", "### Figure 8", "## Figure 9", "## Figure 12",
             "## Beyond the paper: reassembly along the discovered modules",
             "## Beyond the paper: every final best on the validation terrains",
-            "## Time-lapse")
+            "## Transfer: the final bests in 2D-VSR-Sim", "## Time-lapse")
 
 
 @pytest.fixture(scope="module")
@@ -115,6 +115,23 @@ def test_every_section_and_figure_is_written(report):
     assert ("rq1", "biped") in strips and ("rq2-homo", "worm") in strips
     for strip in data["timelapse"]:
         assert (out / "figures" / strip["file"]).is_file()
+
+
+def test_figure3_stands_beside_the_papers_numbers(campaign, report):
+    """Figure 3's curves at both ends, the paper's v_x (section 5.1) and |G| (Table 1) below;
+    the transfer section waits for its transfer.csv."""
+    out, data = report
+    text = (out / "index.md").read_text()
+    assert data["figure3"]["paper"]["size"]["worm"]["final"]["value"] == 216.0
+    assert "| paper |  | 10 | 3000 | ≈ 0.5 | ≈ 5 | not measured | 92 | 216 ± 39.4 |" in text
+    worm = data["figure3"]["curves"]["worm"]["omega 1"]
+    logs = [_log(f) for f in _finished(campaign, "rq1", "worm")]
+    assert worm["velocity_median"][-1] == float(np.median(
+        [float(log[-1]["best_velocity"]) for log in logs]))
+    row = (f"| worm | omega 1 | {len(logs)} | 2 | {worm['velocity_median'][0]:.3f} | "
+           f"{worm['velocity_median'][-1]:.3f} |")
+    assert row in text
+    assert not data["transfer"]["present"] and "Not measured yet" in text
 
 
 def test_table1_final_velocity_is_the_median_of_the_logs_last_rows(campaign, report):

@@ -171,9 +171,9 @@ def kill_at_each_write(tmp_path: Path, mode: str, args: list[str], *more: str) -
 
 @pytest.mark.parametrize("mode", ["replace", "append"])
 def test_a_kill_at_any_file_write_resumes_to_the_same_run(tmp_path, mode):
-    # replace: manifest, config, log, bests, then best.json and checkpoint at 0, 2 and 3;
-    # append: a log row and a best genome for each of generations 0 to 3.
-    assert kill_at_each_write(tmp_path, mode, SHORT) == (11 if mode == "replace" else 9)
+    # replace: manifest, config, physics, log, bests, then best.json and checkpoint at 0, 2
+    # and 3; append: a log row and a best genome for each of generations 0 to 3.
+    assert kill_at_each_write(tmp_path, mode, SHORT) == (12 if mode == "replace" else 9)
 
 
 @pytest.mark.parametrize("mode", ["replace", "append"])
@@ -183,10 +183,10 @@ def test_a_kill_at_any_file_write_of_reoptimize_resumes_to_the_same_result(tmp_p
     args = ["reoptimize", start, "--donors", start, "--population", "4", "--generations",
             "2", "--duration", "1", "--validation", "1", "--seed", "2", "--checkpoint-every",
             "2", "--quiet"]
-    # replace: manifest, config, log, bests, best.json and checkpoint at 0 and 2, then the
-    # manifest with transfer.csv and transfer.csv; append: generations 0 to 2.
+    # replace: manifest, config, physics, log, bests, best.json and checkpoint at 0 and 2,
+    # then the manifest with transfer.csv and transfer.csv; append: generations 0 to 2.
     count = kill_at_each_write(tmp_path, mode, args, "transfer.csv")
-    assert count == (11 if mode == "replace" else 7)
+    assert count == (12 if mode == "replace" else 7)
 
 
 def test_a_kill_as_soon_as_the_directory_exists_resumes(tmp_path):

@@ -90,14 +90,31 @@ def test_reassemble_then_reoptimize_keep_the_donors_settings(run, tmp_path, caps
         (2.0, 1.0, "original-code")
     # The donors hardly move in 2 s of a 1-generation run: rho says so.
     assert "rho divides by it" in printed.err
+    donors = json.loads((out / "report.json").read_text())["donors"]
+    assert [d["terrain"] for d in donors] == ["flat", "flat"]
     again = tmp_path / "again"
     assert main(["reoptimize", str(out / "reassembled.json"), "--donors", str(run),
                  "--generations", "1", "--population", "4", "--validation", "2",
-                 "--out", str(again), "--quiet"]) == 0
+                 "--out", str(again)]) == 0
     config = json.loads((again / "config.json").read_text())
     assert (config["duration"], config["transient"], config["preset"]) == \
         (2.0, 1.0, "original-code")
-    assert config["terrain"] == "hilly-1-10-rnd"  # a reassembly trained on nothing
+    # Donors trained on flat: their reassembly is re-optimised on flat, and says so.
+    assert config["terrain"] == "flat"
+    assert f"settings: training on flat (from reassembly {out}), 2 s" in \
+        capsys.readouterr().out
+    # A genome with no run of its own takes the terrain its donors' runs shared.
+    loose = tmp_path / "loose.json"
+    loose.write_text((out / "reassembled.json").read_text())
+    for donors, terrain, said in (([str(run), str(run / "best.json")], "flat",
+                                   f"(from run {run}, run {run})"),
+                                  ([], "hilly-1-10-rnd", "(the default: no run to inherit")):
+        target = tmp_path / f"loose-{len(donors)}"
+        assert main(["reoptimize", str(loose), *(["--donors", *donors] if donors else []),
+                     "--generations", "1", "--population", "4", "--validation", "1",
+                     "--duration", "1", "--out", str(target)]) == 0
+        assert json.loads((target / "config.json").read_text())["terrain"] == terrain
+        assert f"settings: training on {terrain} {said}" in capsys.readouterr().out
     from_run = tmp_path / "from-run"
     assert main(["reoptimize", str(run), "--generations", "1", "--population", "4",
                  "--validation", "1", "--duration", "1.5", "--out", str(from_run),
@@ -114,3 +131,21 @@ def test_module_export_records_the_runs_validation_velocity(run, tmp_path, capsy
     assert f"from run {run}" in capsys.readouterr().out
     recorded = json.loads(out.read_text())["provenance"]["donor_velocity"]
     assert recorded == pytest.approx(origin_of(run).validation_velocity)
+
+
+def test_assemble_evaluates_with_its_modules_donors_settings(run, tmp_path, capsys):
+    lib = tmp_path / "lib"
+    for module in ("back", "front"):
+        assert main(["module", "export", str(run), "--partition", "worm-halves", "--module",
+                     module, "--out", str(lib / f"{module}.json")]) == 0
+    out = tmp_path / "robot"
+    assert main(["assemble", str(lib), "--place", "back@0,0", "--place", "front@3,0",
+                 "--evaluate", "1", "--out", str(out)]) == 0
+    evaluation = json.loads((out / "evaluation.json").read_text())
+    assert (evaluation["duration"], evaluation["preset"]) == (2.0, "original-code")
+    assert f"from run {run}, run {run} where not given" in capsys.readouterr().out
+    assert main(["assemble", str(lib), "--place", "back@0,0", "--place", "front@3,0",
+                 "--evaluate", "1", "--duration", "1.5", "--preset", "paper",
+                 "--out", str(tmp_path / "given")]) == 0
+    evaluation = json.loads((tmp_path / "given" / "evaluation.json").read_text())
+    assert (evaluation["duration"], evaluation["preset"]) == (1.5, "paper")

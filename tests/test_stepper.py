@@ -27,7 +27,7 @@ from somite.tasks.episode import (
     work_shape,
     work_sizes,
 )
-from somite.tasks.lanes import GROUP_SIZE, groups, run_groups
+from somite.tasks.lanes import GROUP_SIZE, Batch, groups, run_groups
 from somite.tasks.locomotion import compile_controllers, simulate_batch
 from somite.tasks.stepper import Episode, start_batch, step_batch
 
@@ -168,8 +168,8 @@ def _alone_and_grouped(bodies, sizes, nan_robot=None):
     for size in sizes:
         first, count = groups(system, size, threads=1)
         grouped = new_trace(len(bodies), config.n_steps, system, True)
-        run_groups(system, ctrl, params, noise, seeds, config.n_steps, grouped,
-                   new_work(system, ctrl, params), first, count)
+        run_groups(Batch(system, ctrl, params, noise, seeds, config.n_steps, grouped,
+                         new_work(system, ctrl, params), rays), first, count)
         runs.append((first, count, grouped))
     return alone, runs
 

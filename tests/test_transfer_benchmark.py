@@ -212,3 +212,50 @@ def test_end_to_end(runs):
         assert g["somite_vx"] == v and math.isfinite(g["vsr_vx"])
         assert g["ratio"] == pytest.approx(g["vsr_vx"] / g["somite_vx"])
     assert out["shapes"]["worm"]["runs"] == 1
+
+
+def test_campaign_rows_feed_the_reports_transfer_section(tmp_path, capsys):
+    """``--campaign``: each run's last sampled generation into the campaign's transfer.csv,
+    merged by task and engine, read back by the report's transfer section."""
+    from somite.report.markdown import _transfer
+    from somite.report.transfer import read_transfer
+
+    campaign = tmp_path / "c"
+    runs = [campaign / "rq1" / "worm-s0", campaign / "rq1" / "worm-s1"]
+
+    def out(ratios):
+        return {"runs": [{"run": str(run), "generations": [
+            {"generation": 0, "somite_vx": 1.0, "vsr_vx": 9.0, "ratio": 9.0},
+            {"generation": 3000, "somite_vx": 2.0, "vsr_vx": r and 2.0 * r, "ratio": r}]}
+            for run, r in zip(runs, ratios)]}
+
+    assert transfer.engine_of("classes-dyn4j-noccd") == "noccd"
+    assert transfer.engine_of("classes-dyn4j") == "stock"
+    campaign.mkdir()
+    transfer.write_campaign_csv(campaign, transfer.campaign_rows(out([0.5, 0.7]), campaign,
+                                                                 "stock"))
+    transfer.write_campaign_csv(campaign, transfer.campaign_rows(out([0.9, None]), campaign,
+                                                                 "noccd"))
+    transfer.write_campaign_csv(campaign, transfer.campaign_rows(out([0.6, 0.8]), campaign,
+                                                                 "stock"))  # replaces
+    lines = (campaign / "transfer.csv").read_text().splitlines()
+    assert lines[0] == "task,engine,generation,somite_vx,vsr_vx,ratio"
+    assert lines[1:] == ["rq1/worm-s0,noccd,3000,2.0,1.8,0.9",
+                         "rq1/worm-s0,stock,3000,2.0,1.2,0.6", "rq1/worm-s1,noccd,3000,2.0,,",
+                         "rq1/worm-s1,stock,3000,2.0,1.6,0.8"]
+    with pytest.raises(SomiteError, match="not a task folder"):
+        transfer.campaign_rows({"runs": [{"run": str(tmp_path), "generations": [{}]}]},
+                               campaign, "stock")
+    tasks = {"rq1/worm-s0": ("rq1", "worm"), "rq1/worm-s1": ("rq1", "worm")}
+    found = read_transfer(campaign, tasks)
+    summary = {s["engine"]: s for s in found["summary"]}
+    assert summary["stock"]["median_ratio"] == pytest.approx(0.7)
+    assert (summary["noccd"]["median_ratio"], summary["noccd"]["not_finite"]) == (0.9, 1)
+    text = "\n".join(_transfer({"transfer": found}))
+    assert "| rq1 | worm | stock | 2 | 0.700 | 0 |" in text
+    assert "Not measured" not in text
+    missing = read_transfer(tmp_path, tasks)
+    assert "Not measured yet" in "\n".join(_transfer({"transfer": missing}))
+    (campaign / "transfer.csv").write_text("task,engine,ratio\nrq1/worm-s0,fast,1\n")
+    with pytest.raises(SomiteError, match="engine='fast'"):
+        read_transfer(campaign, tasks)

@@ -483,7 +483,7 @@ def test_force_still_replaces_a_writable_run(old_run, capsys):
     assert json.loads((old_run / "config.json").read_text())["seed"] == 1
     assert sorted(p.name for p in old_run.iterdir()) == sorted(
         ["best.json", "bests.jsonl", "checkpoint.json", "config.json", "log.csv",
-         "manifest.json"])
+         "manifest.json", "physics.json"])
 
 
 # -- plot: a run whose final best is NaN --------------------------------------------------------

@@ -38,14 +38,15 @@ def json_safe(value):
     return value
 
 
-def write_atomic(path: str | os.PathLike, text: str, field: str = "out") -> Path:
-    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename.
+def write_atomic(path: str | os.PathLike, text: str | bytes, field: str = "out") -> Path:
+    """Write ``text`` (UTF-8; or ``bytes`` as they are) to ``path`` through a temporary file in
+    the same folder and a rename.
 
     Any OSError (creating, writing, flushing or renaming: a full disk, a read-only or immutable
     target, a folder that went away, a name too long) is a one-line error naming ``field``
     and the OS's reason; the temporary file is removed and the old ``path`` left as it was."""
     path = Path(path)
-    data = text.encode("utf-8")
+    data = text if isinstance(text, bytes) else text.encode("utf-8")
     # Not tempfile.mkstemp: its files are private (0600); os.open with 0666 honours the umask.
     tmp = path.parent / temporary_name(path.name)
     try:

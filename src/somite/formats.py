@@ -98,18 +98,22 @@ CHECKPOINT = FileFormat(
 )
 MANIFEST_FILE = FileFormat("somite-run-manifest", None, "run manifest")
 CAMPAIGN = FileFormat("somite-campaign", 1, "campaign")
+CAMPAIGN_PACK = FileFormat("somite-campaign-pack", 1, "campaign pack")
+RUN_PHYSICS = FileFormat("somite-run-physics", 1, "run physics")
 REPORT = FileFormat("somite-report", 1, "report")
 REPORT_CACHE = FileFormat("somite-report-cache", 1, "report cache")
 
 FORMATS = {
     f.name: f
-    for f in (GENOME, MODULE, PARTITION, CHECKPOINT, MANIFEST_FILE, CAMPAIGN, REPORT, REPORT_CACHE)
+    for f in (GENOME, MODULE, PARTITION, CHECKPOINT, MANIFEST_FILE, CAMPAIGN, CAMPAIGN_PACK,
+              RUN_PHYSICS, REPORT, REPORT_CACHE)
 }
 """Every file format somite writes, by name."""
 
 
 __all__ = [
     "CAMPAIGN",
+    "CAMPAIGN_PACK",
     "CHECKPOINT",
     "FORMATS",
     "GENOME",
@@ -118,5 +122,6 @@ __all__ = [
     "PARTITION",
     "REPORT",
     "REPORT_CACHE",
+    "RUN_PHYSICS",
     "FileFormat",
 ]

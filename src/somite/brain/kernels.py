@@ -8,12 +8,12 @@ edge, the bias summed once per edge, an isolated node giving act(0). Hidden node
 
 from __future__ import annotations
 
-from .._jit import njit
+from .._jit import uncounted
 from .._math import sigmoid, tanh
 from .kinds import HIDDEN, SENSOR
 
 
-@njit(_nrt=False)
+@uncounted
 def graph_step(n_nodes, node_kind, node_ref, n_edges, src, dst, weight, bias,
                h_prev, h_next, readings, actuation, hidden_sigmoid):
     """One control step: ``h_next`` from ``h_prev`` and ``readings``; writes ``actuation``.

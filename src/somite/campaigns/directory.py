@@ -248,6 +248,32 @@ def _grows(there: dict, doc: dict) -> bool:
         tasks.get(t["id"]) == t for t in there["tasks"])
 
 
+RESUMABLE = ("evolve", "reoptimize")
+"""The kinds whose tasks are runs that resume from a checkpoint (the others start again)."""
+
+
+def physics_to_force(directory: Path, doc: dict, force: bool) -> list[tuple[Path, str]]:
+    """Check, as ``--resume`` of each run would (:func:`~somite.experiments.physics
+    .check_resume`), that every unfinished run of ``doc`` with a checkpoint ran under this
+    somite's physics: one that did not is refused in one line naming both physics, unless
+    ``force``; then returns each such run's folder and the ``physics.json`` that records the
+    forced resume, for the caller to write once it holds the campaign."""
+    from ..experiments.physics import check_resume
+
+    forced = []
+    for task in doc["tasks"]:
+        folder = directory / task["path"]
+        checkpoint = folder / "checkpoint.json"
+        if task["kind"] not in RESUMABLE or finished(directory, task) or not \
+                checkpoint.is_file():
+            continue
+        generation = read_json(checkpoint, "checkpoint").get("generation")
+        text = check_resume(folder, force, generation if isinstance(generation, int) else -1)
+        if text is not None:
+            forced.append((folder, text))
+    return forced
+
+
 def finished(directory: Path, task: dict) -> bool:
     return (directory / task["path"] / DONE).is_file()
 

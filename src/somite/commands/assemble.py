@@ -7,11 +7,14 @@ import json
 
 from .._io import check_output_folder, make_folder, write_atomic
 from ..errors import bad
+from ..experiments.origin import shared_origin
 from ..modules.library import assemble, list_library, parse_placement
 from .common import (
     add_options,
     add_simulation_options,
     check_episodes,
+    option,
+    settings_line,
     simulation_config,
     warn_whole_episode,
     whole_int,
@@ -31,7 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--evaluate", type=whole_int("evaluate"), default=0, metavar="N",
         help="also measure v_x on N validation terrains (default 0: no simulation)",
     )
-    add_simulation_options(parser)
+    add_simulation_options(parser, layered="the modules' donors' runs' (when all agree)")
     add_options(parser, "yes")
 
 
@@ -39,15 +42,26 @@ def run(args: argparse.Namespace) -> int:
     out = check_output_folder(args.out)
     if args.evaluate < 0:
         raise bad("evaluate", args.evaluate, "must be 0 or more")
-    config = simulation_config(args) if args.evaluate else None
     library = list_library(args.library)
     placements = [
         parse_placement(text, library, f"place[{i}]") for i, text in enumerate(args.place)
     ]
+    # The donors' runs, as their module files name them (found from here), lend duration and
+    # preset when they all ran with the same.
+    origin = shared_origin([p.module.provenance.donor for p in placements
+                            if p.module.provenance.donor]) if args.evaluate else None
+    config = simulation_config(args, origin) if args.evaluate else None
     genome = assemble(placements)
     if config is not None:
         check_episodes(args.evaluate, config, genome.body, args.yes, "this evaluation")
-    evaluation = _evaluate(args, genome, config) if args.evaluate else None
+    evaluation = None
+    if args.evaluate:
+        from ._progress import simulating
+
+        print(settings_line(args, config, origin, f"{args.evaluate} validation terrains"))
+        with simulating(f"measuring it on {args.evaluate} validation terrains"):
+            evaluation = _evaluate(args, genome, config, option(args, "preset",
+                                                                 origin.options()))
     make_folder(out)
     genome.save(out / "assembled.json")
     if evaluation is not None:
@@ -65,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _evaluate(args, genome, config) -> dict:
+def _evaluate(args, genome, config, preset: str) -> dict:
     import math
 
     from ..tasks.validation import evaluate, validation_terrains
@@ -79,7 +93,7 @@ def _evaluate(args, genome, config) -> dict:
         "placements": list(args.place),
         "terrains": [t.name for t in terrains],
         "duration": config.duration,
-        "preset": args.preset,
+        "preset": preset,
         "seed": args.seed,
         "v_x": mean if math.isfinite(mean) else None,
         "per_terrain": [float(v) if math.isfinite(v) else None for v in velocity],

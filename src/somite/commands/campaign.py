@@ -12,7 +12,8 @@ from ..errors import bad
 # The built-ins' names are `campaign list`'s to give: importing the campaigns here would load
 # the simulator for every command's --help.
 HELP = ("Run a campaign of experiments (a built-in, which `somite campaign list` lists, or a "
-        "TOML file) on Dask; list the built-ins; show a campaign directory's tasks.")
+        "TOML file) on Dask; list the built-ins; show a campaign directory's tasks; pack a "
+        "campaign's resumable state into one file and unpack it elsewhere.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,13 +37,63 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     run.add_argument("--yes", action="store_true",
                      help="start a campaign estimated at more than 12 h on this machine's "
                      "cores (refused without it; not checked with --scheduler)")
+    run.add_argument("--force-physics", action="store_true",
+                     help="with --resume: resume runs that started under another physics "
+                     "version than this somite's (refused without it); each such run's "
+                     "physics.json records it")
     sub.add_parser("list", help="the built-in campaigns, their tasks and robot-control-steps")
     status = sub.add_parser("status", help="the table of a campaign directory's tasks")
     status.add_argument("directory", help="campaign directory")
+    pack = sub.add_parser(
+        "pack", help="write a stopped campaign's whole resumable state into one compressed file",
+        description="Write a campaign directory (stopped, or finished) into one compressed file "
+        "that `somite campaign unpack` restores: every file as it is, genomes and logs as "
+        "binary arrays, an evolve run's bests thinned to every 10th generation and the last "
+        "10 (the report does not read the others; a resume needs none of them). `campaign run "
+        "--resume` on the unpacked folder goes on exactly as it would have here.")
+    pack.add_argument("directory", help="campaign directory")
+    pack.add_argument("--out", required=True, help="the pack file to write (replaced "
+                      "atomically if it exists)")
+    pack.add_argument("--quiet", action="store_true", help="no progress lines")
+    unpack = sub.add_parser(
+        "unpack", help="restore a campaign directory from a pack",
+        description="Restore a campaign directory from a file `somite campaign pack` wrote; "
+        "`somite campaign run --resume --out DIR` then continues it.")
+    unpack.add_argument("pack", help="pack file")
+    unpack.add_argument("--out", required=True, help="campaign directory to create (new or "
+                        "empty)")
+    unpack.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
 def run(args: argparse.Namespace) -> int:
-    return {"run": _run, "list": _list, "status": _status}[args.action](args)
+    return {"run": _run, "list": _list, "status": _status, "pack": _pack,
+            "unpack": _unpack}[args.action](args)
+
+
+def _say(quiet: bool):
+    return (lambda text: None) if quiet else (lambda text: print(text, file=sys.stderr,
+                                                                  flush=True))
+
+
+def _pack(args: argparse.Namespace) -> int:
+    from ..campaigns.pack import pack
+
+    done = pack(args.directory, args.out, _say(args.quiet))
+    if not args.quiet:
+        print(f"{args.out}: {done.bytes / 1e6:.2f} MB ({done.files} files of "
+              f"{done.size / 1e6:.2f} MB; bests kept {done.bests_kept}, thinned "
+              f"{done.bests_thinned})")
+    return 0
+
+
+def _unpack(args: argparse.Namespace) -> int:
+    from ..campaigns.pack import unpack
+
+    index = unpack(args.pack, args.out, _say(args.quiet))
+    if not args.quiet:
+        print(f"campaign {index.get('campaign')!r} in {args.out} ({len(index['files'])} "
+              f"files); `somite campaign run --resume --out {args.out}` continues it")
+    return 0
 
 
 def load_campaign(name: str):
@@ -72,6 +123,9 @@ def _run(args: argparse.Namespace) -> int:
     if args.campaign is None and not args.resume:
         raise bad("campaign", None, "name a campaign (a built-in of `somite campaign list`, or "
                   "a .toml file)")
+    if args.force_physics and not args.resume:
+        raise bad("force_physics", True, "only with --resume (a new campaign runs under this "
+                  "somite's physics)")
     doc = None
     if args.campaign is not None:
         campaign = load_campaign(args.campaign)
@@ -80,6 +134,8 @@ def _run(args: argparse.Namespace) -> int:
     # Refused before its directory is created or locked; checked again once locked.
     planned = campaign_dir.prepare(out, doc, args.resume, write=False)
     campaign_dir.check_runnable(planned)
+    # Runs of another physics are refused before anything starts, as each run's resume would.
+    campaign_dir.physics_to_force(out, planned, args.force_physics)
     # Connected (or the local cluster started) before anything is written: a scheduler that
     # cannot be reached leaves no campaign.json, which would refuse the next attempt.
     left = [t for t in planned["tasks"] if not campaign_dir.finished(out, t)]
@@ -96,6 +152,7 @@ def _run(args: argparse.Namespace) -> int:
         out.mkdir(parents=True, exist_ok=True)
         with RunLock(out):
             doc = campaign_dir.prepare(out, doc, args.resume)
+            _force_physics(out, doc, args.force_physics)
             with LiveView(out, doc, args.quiet) as view:
                 outcome = execute(out, doc, args.scheduler, args.workers, args.threads,
                                   watch=view.update, connection=connection)
@@ -112,6 +169,19 @@ def _run(args: argparse.Namespace) -> int:
         print(f"{len(outcome.ran)} tasks run in {outcome.wall_s:.1f} s{rate}; "
               f"`somite campaign status {out}` lists them")
     return 1 if outcome.failed or outcome.skipped else 0
+
+
+def _force_physics(out: Path, doc: dict, force: bool) -> None:
+    """Record the forced resumes under this physics in each run's physics.json (the runs then
+    resume on the workers as runs of this physics)."""
+    from ..campaigns import directory as campaign_dir
+    from ..experiments.physics import PHYSICS_FILE, force_record
+    from ..experiments.runner import RunDirectory
+
+    for folder, text in campaign_dir.physics_to_force(out, doc, force):
+        with RunDirectory(folder).locked() as run_dir:
+            run_dir.record(PHYSICS_FILE)
+            force_record(folder, text)
 
 
 def _list(args: argparse.Namespace) -> int:
@@ -248,7 +318,9 @@ _SHOWN = 12
 
 class LiveView:
     """The progress of a running campaign: tasks done / running / queued, generations, ETA,
-    the running runs and the Dask dashboard's address. Nothing at all when ``quiet``."""
+    the running runs and the Dask dashboard's address, live on a terminal; elsewhere (a log)
+    the counts as a line every :data:`~somite.commands._progress.HEARTBEAT_SECONDS`. Nothing
+    at all when ``quiet``."""
 
     def __init__(self, directory: Path, doc: dict, quiet: bool) -> None:
         self.directory, self.doc, self.quiet = directory, doc, quiet
@@ -257,23 +329,39 @@ class LiveView:
         self.at_start = None
         self.last = 0.0
         self.dashboard = ""
+        self.beat = None
 
     def __enter__(self) -> LiveView:
-        if not self.quiet:
-            from rich.live import Live
+        if self.quiet:
+            return self
+        from rich.live import Live
 
-            self.live = Live(self._render(), refresh_per_second=2)
-            self.live.start()
+        self.live = Live(self._render(), refresh_per_second=2)
+        if not self.live.console.is_terminal:
+            from ._progress import Waiting
+
+            # A log sees nothing of a Live display until it stops: a line now and then
+            # (on standard error), and the whole view at the end, as before.
+            self.beat = Waiting(self._counts()).__enter__()
+            return self
+        self.live.start()
         return self
 
     def update(self, outcome) -> None:
-        if self.live is None or time.monotonic() - self.last < 1.0:
+        if self.beat is not None and time.monotonic() - self.last >= 1.0:
+            self.last = time.monotonic()
+            self.beat.update(text=self._counts())
+        if self.live is None or self.beat is not None or time.monotonic() - self.last < 1.0:
             return
         self.last = time.monotonic()
         self.dashboard = outcome.dashboard
         self.live.update(self._render())
 
-    def _render(self):
+    def _counts(self) -> str:
+        """The view's second line, alone (the counts, the share done, the ETA)."""
+        return self._render(full=False)
+
+    def _render(self, full: bool = True):
         from rich.console import Group
         from rich.text import Text
 
@@ -287,13 +375,16 @@ class LiveView:
         rate = (done - self.at_start) / elapsed if elapsed > 0 else 0.0
         eta = _duration((total - done) / rate) if rate > 0 else "-"
         counts = now.counts
+        summary = (f"tasks: {counts['done']} done, {counts['running']} running, "
+                   f"{counts['queued'] + counts['partial']} queued (of {sum(counts.values())})   "
+                   f"generations {now.generations[0]}/{now.generations[1]}   "
+                   f"{now.fraction:.1%} of {total:.3g} robot-control-steps   "
+                   f"elapsed {_duration(elapsed)}  ETA {eta}")
+        if not full:
+            return summary
         lines = [
             Text(f"campaign {self.doc.get('name')} -> {self.directory}", style="bold"),
-            Text(f"tasks: {counts['done']} done, {counts['running']} running, "
-                 f"{counts['queued'] + counts['partial']} queued (of {sum(counts.values())})   "
-                 f"generations {now.generations[0]}/{now.generations[1]}   "
-                 f"{now.fraction:.1%} of {total:.3g} robot-control-steps   "
-                 f"elapsed {_duration(elapsed)}  ETA {eta}"),
+            Text(summary),
             Text("dashboard: " + (self.dashboard or "none (Dask's needs bokeh: pip install "
                                   "'somite[dashboard]')")),
         ]
@@ -307,7 +398,11 @@ class LiveView:
         return Group(*lines)
 
     def __exit__(self, *exc) -> None:
-        if self.live is not None:
+        if self.beat is not None:
+            self.beat.__exit__(*exc)
+            self.live.console.print(self._render())
+            self.live.console.line()
+        elif self.live is not None:
             self.live.update(self._render())
             self.live.stop()
             if not self.live.console.is_terminal:

@@ -10,7 +10,7 @@ from ..experiments.runner import RunDirectory, evolve
 from ..sim.terrain import parse_terrain
 from ..tasks.validation import fresh_noise
 from ..tasks.velocity import mean_velocity
-from ._progress import note_compiling, rendering
+from ._progress import rendering
 from .common import add_options, whole_int
 from .evolve import progress_bar, summarise
 
@@ -44,7 +44,6 @@ def run(args: argparse.Namespace) -> int:
     out = check_output_folder(args.out)
     run_dir = out / "run"
     config = resolve({**DEMO, "generations": args.generations})
-    note_compiling(args.quiet)
     with progress_bar(config.generations, args.quiet) as report:
         ea = evolve(config, run_dir, force=True, progress=report)
     summarise(ea, RunDirectory(run_dir), args.quiet)

@@ -9,9 +9,10 @@ import numpy as np
 from ..errors import bad
 from ..experiments.origin import origin_of
 from ..sim.terrain import parse_terrain
+from ..tasks.locomotion import OUTCOME_UNITS
 from ..tasks.validation import evaluate_outcomes, validation_terrains
 from ..tasks.velocity import mean_velocity
-from ._progress import note_compiling
+from ._progress import simulating
 from .common import (
     GENOME_RUN,
     NON_FINITE,
@@ -60,8 +61,8 @@ def run(args: argparse.Namespace) -> int:
     config = simulation_config(args, origin)
     check_episodes(len(terrains), config, genome.body, args.yes, "this evaluation")
     settings = settings_line(args, config, origin, where)
-    note_compiling()
-    outcomes = evaluate_outcomes([genome], terrains, config, args.seed)[0]
+    with simulating(f"simulating {len(terrains)} episodes of {config.duration:g} s"):
+        outcomes = evaluate_outcomes([genome], terrains, config, args.seed)[0]
     velocities = np.array([o.velocity for o in outcomes])
     mean = mean_velocity(velocities)  # NaN when any terrain is (the one rule)
     report = {
@@ -84,13 +85,14 @@ def run(args: argparse.Namespace) -> int:
         values = [getattr(o, key) for o in outcomes]
         report[key] = float(pick(values)) if np.isfinite(values).any() else None
     if args.json:
-        print_json(report)
+        print_json({**report, "units": UNITS})
     else:
         print(settings)
         for t, o in zip(terrains, outcomes):
             print(f"{t.name:>22}: {o.velocity:8.4f} m/s   tilt {o.max_tilt_deg:5.1f} deg,"
-                  f" on its side {o.flipped_fraction:6.1%}, area >= {o.min_signed_area_ratio:.2f},"
-                  f" height {o.max_height:.2f} m"
+                  f" on its side {o.flipped_fraction:6.1%}, area ratio >= "
+                  f"{o.min_signed_area_ratio:.2f}, lowest corner {o.min_height:.2f} to "
+                  f"{o.max_height:.2f} m above ground"
                   + (f", non-finite at {o.non_finite} steps" if o.non_finite else ""))
         mean = report["mean_velocity"]
         print(f"{'mean':>22}: {'NaN' if mean is None else f'{mean:8.4f}'} m/s"
@@ -109,3 +111,10 @@ DIAGNOSTICS = {
     "min_height": np.nanmin,
 }
 """The outcome's diagnostics, and how the report sums them up over the terrains."""
+
+UNITS = {"settings.duration": "s", "settings.transient": "s", "terrains": "m/s",
+         "mean_velocity": "m/s", "non_finite": "terrains", "non_finite_steps": "control steps",
+         **{key: OUTCOME_UNITS[key][0] for key in DIAGNOSTICS}}
+"""The unit of every number of ``evaluate --json`` ("" for a pure number; ``diagnostics``
+holds the same keys per terrain); :data:`~somite.tasks.locomotion.OUTCOME_UNITS` says what
+each diagnostic is."""

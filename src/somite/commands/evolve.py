@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 
 from .._io import check_output_folder
 from ..errors import bad
@@ -15,7 +16,7 @@ from ..experiments.runner import RunDirectory, evolve
 from ..tasks.backends import check_backend
 from ..tasks.distributions import DISTRIBUTION_HELP
 from ..tasks.validation import VALIDATION_COUNT
-from ._progress import note_compiling
+from ._progress import COMPILING, Waiting, will_compile
 from .common import (
     NON_FINITE,
     add_options,
@@ -37,8 +38,10 @@ _LAYERED = "the --config file's"
 
 
 def add_evolution_options(parser: argparse.ArgumentParser,
-                          generations: int = RunConfig.generations) -> None:
-    """The options shared by ``evolve`` and ``reoptimize`` (``generations``: the default)."""
+                          generations: int = RunConfig.generations,
+                          terrain: str = "hilly-1-10-rnd (a new terrain per evaluation)") -> None:
+    """The options shared by ``evolve`` and ``reoptimize`` (``generations``, ``terrain``: what
+    their help gives as the default)."""
     parser.add_argument("--out", required=True, help="run directory")
     parser.add_argument("--config", help="TOML file with any of the options below")
     add_options(parser, "preset", layered=_LAYERED)
@@ -51,7 +54,7 @@ def add_evolution_options(parser: argparse.ArgumentParser,
     add_options(parser, "seed", layered=_LAYERED,
                 notes={"seed": "seeds the whole run: variation, terrains and sensor noise"})
     parser.add_argument("--terrain", help=f"training terrains: {DISTRIBUTION_HELP}; "
-                        "default hilly-1-10-rnd (a new terrain per evaluation)")
+                        f"default {terrain}")
     add_options(parser, "duration", layered=_LAYERED)
     parser.add_argument("--evaluations", type=whole_int("evaluations"), metavar="K",
                         help="terrains per evaluation, fitness their mean v_x "
@@ -78,6 +81,10 @@ def add_evolution_options(parser: argparse.ArgumentParser,
                         help="continue from the last checkpoint (a run killed before its first "
                         "one starts again: the same run)")
     parser.add_argument("--force", action="store_true", help="overwrite an existing run")
+    parser.add_argument("--force-physics", action="store_true",
+                        help="with --resume: resume a run that ran under another physics "
+                        "version than this somite's (refused without it); its physics.json "
+                        "records that")
     add_options(parser, "backend", "quiet", "yes")
 
 
@@ -92,10 +99,9 @@ def run(args: argparse.Namespace) -> int:
     backend = check_backend(args.backend)
     # Locked before the progress bar starts, so that a refusal is the only line printed.
     with RunDirectory(args.out).locked() as run_dir:
-        note_compiling(args.quiet, backend)
-        with progress_bar(config.generations, args.quiet) as report:
+        with progress_bar(config.generations, args.quiet, backend) as report:
             ea = evolve(config, run_dir, resume=args.resume, force=args.force, progress=report,
-                        backend=backend)
+                        backend=backend, force_physics=args.force_physics)
     summarise(ea, run_dir, args.quiet)
     warn_whole_episode(args.prog, config.setup.sim)  # last: a caveat on the result
     return 0
@@ -111,6 +117,9 @@ def configuration(args: argparse.Namespace, defaults: dict | None = None, **fixe
     run_dir = RunDirectory(args.out)
     if args.resume and args.force:
         raise bad("resume", True, "--resume and --force exclude each other")
+    if args.force_physics and not args.resume:
+        raise bad("force_physics", True, "only with --resume (a new run runs under this "
+                  "somite's physics)")
     # A run killed before it wrote config.json left an empty directory: resuming it is
     # starting it.
     unborn = run_dir.path.is_dir() and not run_dir.has_run()
@@ -146,52 +155,39 @@ def summarise(ea: GraphEA, run_dir: RunDirectory, quiet: bool) -> None:
 
 
 class progress_bar:
-    """A rich progress bar (generation, best v_x, |G|, ETA), or nothing when quiet."""
+    """Generations as they go (generation, best v_x, |G|, time elapsed and left), on a terminal
+    or not (:class:`~somite.commands._progress.Waiting`), or nothing when quiet. Before the
+    first generation is done it says whether it waits for the kernels to compile."""
 
-    def __init__(self, generations: int, quiet: bool) -> None:
+    def __init__(self, generations: int, quiet: bool, backend: str = "cpu") -> None:
         self.generations = generations
         self.quiet = quiet
-        self.bar = None
+        self.backend = backend
+        self.wait = None
 
     def __enter__(self):
         if self.quiet:
             return None
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeRemainingColumn,
-        )
-
-        self.bar = Progress(
-            TextColumn("generation"),
-            MofNCompleteColumn(),
-            BarColumn(),
-            TextColumn("best v_x {task.fields[best]} m/s  |G| {task.fields[size]}"),
-            TimeRemainingColumn(),
-        )
-        self.bar.start()
-        self.task = self.bar.add_task("evolve", total=self.generations, best="-", size="-")
+        first = "evolving"
+        if will_compile(self.backend):
+            sys.stderr.write(COMPILING + "...\n")
+            sys.stderr.flush()
+            first = "compiling the kernels first"
+        self.wait = Waiting(first, total=self.generations, unit="generations", eta=True,
+                            transient=False)
+        self.wait.__enter__()
         return self.update
 
     def update(self, ea: GraphEA, row: dict) -> None:
         best = row["best_velocity"]
-        self.bar.update(
-            self.task,
-            completed=ea.generation,
-            best="nan" if math.isnan(best) else f"{best:.3f}",
-            size=row["best_size"],
-        )
+        shown = "nan" if math.isnan(best) else f"{best:.3f}"
+        self.wait.update(text=f"best v_x {shown} m/s, |G| {row['best_size']}",
+                         done=ea.generation)
         if row.get("non_finite_episodes"):
             # Printed above the bar; log.csv keeps the count (non_finite_episodes) too.
-            self.bar.console.print(
-                f"warning: generation {ea.generation}: {row['non_finite_episodes']} episodes: "
-                f"{NON_FINITE}", highlight=False, soft_wrap=True)
+            self.wait.say(f"warning: generation {ea.generation}: {row['non_finite_episodes']} "
+                          f"episodes: {NON_FINITE}")
 
     def __exit__(self, *exc) -> None:
-        if self.bar is not None:
-            if exc[0] is not None:
-                # Erase the bar, so that an error is the only line left on the terminal.
-                self.bar.live.transient = True
-            self.bar.stop()
+        if self.wait is not None:
+            self.wait.__exit__(*exc)

@@ -16,7 +16,7 @@ from ..errors import bad
 from ..experiments.origin import origin_of
 from ..experiments.reassembly import write_reassembly
 from ..modules.transfer import RHO_FLOOR
-from ._progress import note_compiling
+from ._progress import simulating
 from .common import (
     add_genome,
     add_options,
@@ -84,13 +84,15 @@ def run(args: argparse.Namespace) -> int:
              "both donors and the new robot are measured with donor 1's")
     if args.validation:
         print(settings_line(args, config, origin, f"{args.validation} validation terrains"))
-    note_compiling()
-    result, report = write_reassembly(
-        out, genomes, (args.donor1, args.donor2), args.partition, config,
-        receiver_shape=args.receiver_shape, receiver_sensors=args.receiver_sensors,
-        receiver_partition=args.receiver_partition, take=args.take,
-        validation=args.validation, seed=args.seed, preset=preset, draw=args.draw,
-    )
+    with simulating(f"cutting the donors and measuring three robots on {args.validation} "
+                    "validation terrains" if args.validation else "cutting the donors",
+                    quiet=not args.validation):
+        result, report = write_reassembly(
+            out, genomes, (args.donor1, args.donor2), args.partition, config,
+            receiver_shape=args.receiver_shape, receiver_sensors=args.receiver_sensors,
+            receiver_partition=args.receiver_partition, take=args.take,
+            validation=args.validation, seed=args.seed, preset=preset, draw=args.draw,
+        )
     if args.draw:
         from ..viz.brain import draw_brain
 
@@ -133,7 +135,7 @@ def _print_summary(report: dict, out: Path) -> None:
         v = report["validation"]
         print(
             f"  v_x donor1 {_fmt(v['v_donor1'])}  donor2 {_fmt(v['v_donor2'])}  "
-            f"reassembled {_fmt(v['v_reassembled'])}  rho {_fmt(v['rho'])}"
+            f"reassembled {_fmt(v['v_reassembled'])} m/s  rho {_fmt(v['rho'])}"
         )
 
 

@@ -22,7 +22,7 @@ from ..viz.video import (
     record_episode,
     write_episode,
 )
-from ._progress import note_compiling, rendering
+from ._progress import rendering, simulating
 from .common import (
     GENOME_RUN,
     add_options,
@@ -82,8 +82,8 @@ def run(args: argparse.Namespace) -> int:
         frame_steps(config.n_steps, args.fps))
     _check_drawing(out, frames, width * height, config, genome.body, args.yes)
     print(settings_line(args, config, origin, terrain))
-    note_compiling()
-    recording = record_episode(genome.body, genome, terrain, config, args.seed)
+    with simulating(f"simulating {config.duration:g} s on {terrain}"):
+        recording = record_episode(genome.body, genome, terrain, config, args.seed)
     if not recording.complete:
         stop = recording.n_steps / CONTROL_HZ
         print(f"somite show: note: the simulation went non-finite after t = {stop:.2f} s; "

@@ -11,8 +11,8 @@ from ..experiments.origin import origin_of
 from ..sim.body import Body
 from ..sim.terrain import TERRAIN_HELP, parse_terrain
 from ..tasks.backends import check_backend
-from ..tasks.locomotion import simulate_batch
-from ._progress import note_compiling
+from ..tasks.locomotion import OUTCOME_UNITS, simulate_batch
+from ._progress import simulating
 from .common import (
     GENOME_RUN,
     NON_FINITE,
@@ -60,9 +60,10 @@ def run(args: argparse.Namespace) -> int:
     config = simulation_config(args, origin)
     if not args.json and origin is not None and origin.source:
         print(settings_line(args, config, origin, terrain.name))
-    note_compiling()
-    [outcome], _ = simulate_batch([body], [terrain], [controller], config, seeds=args.seed,
-                            backend=check_backend(args.backend))
+    backend = check_backend(args.backend)
+    with simulating(f"simulating {config.duration:g} s", backend=backend):
+        [outcome], _ = simulate_batch([body], [terrain], [controller], config, seeds=args.seed,
+                                      backend=backend)
     report = {
         "shape": body.shape.grid_string(),
         "terrain": terrain.name,
@@ -71,15 +72,21 @@ def run(args: argparse.Namespace) -> int:
         "seed": args.seed,
         **outcome.to_dict(),
     }
+    units = {"duration": ("s", "the episode's length"),
+             "seed": ("", "the seed of the sensor noise"), **OUTCOME_UNITS}
     if args.json:
-        print_json(report)
+        print_json({**report, "units": {key: units[key][0] for key in units}})
     else:
+        start, end = config.measured_interval
         for key, value in report.items():
             if isinstance(value, float):
                 value = f"{value:.4f}"
             elif isinstance(value, list):
                 value = ", ".join(f"{v:.3f}" for v in value)
-            print(f"{key:>21}: {value}")
+            unit, meaning = units.get(key, ("", ""))
+            meaning = meaning.replace("[transient, end]", f"[{start:g} s, {end:g} s]")
+            shown = f"{key:>21}: {value} {unit}".rstrip()
+            print(f"{shown:<38}  {meaning}" if meaning else shown)
     if outcome.non_finite:
         warn(args.prog, f"at {outcome.non_finite} control steps {NON_FINITE}")
     warn_whole_episode(args.prog, config)  # last: a caveat on the result

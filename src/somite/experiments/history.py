@@ -6,6 +6,12 @@ read is not the end of the history but a damaged file, and is refused with one l
 file, the line and what is wrong, before any file is touched. The one thing a kill leaves that
 is not an error is a torn last line (an append cut short, without its newline), which is the
 run's own and is rewritten.
+
+A line of ``bests.jsonl`` may be *thinned* (``somite campaign pack`` keeps a best every few
+generations): ``{"generation":G,"thinned":"DIGEST"}``, the short digest of the line it stands
+for. It counts as that line everywhere the history is checked or sealed, so that a run
+unpacked from a pack resumes, and seals its checkpoints, exactly as the run it was packed from;
+only the genome of that generation is gone.
 """
 
 from __future__ import annotations
@@ -14,6 +20,7 @@ import csv
 import hashlib
 import json
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -168,9 +175,8 @@ def _line_digests(folder: Path, generation: int) -> dict[str, list[str]]:
     """A short hash of each complete line of generations 0 to ``generation`` of ``log.csv``
     and ``bests.jsonl``, as written (a resume's cut-back writes them again byte for byte).
     Eight hex digits a line: a few kB for thousands of generations."""
-    return {name: [hashlib.sha256(_sealed_part(name, line).encode("utf-8")).hexdigest()[:8]
-                   for _, line in _complete_lines(folder / file, name, name == "log")[
-                       : generation + 1]]
+    return {name: [line_digest(name, line) for _, line in
+                   _complete_lines(folder / file, name, name == "log")[: generation + 1]]
             for name, file in _FILES.items()}
 
 
@@ -231,6 +237,9 @@ def _row(path: Path, number: int, line: str) -> dict:
 
 def _best(path: Path, number: int, line: str) -> dict:
     where = f"{path}, line {number}"
+    thinned = THINNED.fullmatch(line)
+    if thinned:
+        return {"generation": int(thinned[1]), "thinned": thinned[2]}
     try:
         entry = json.loads(line)
     except (ValueError, RecursionError) as error:
@@ -242,5 +251,26 @@ def _best(path: Path, number: int, line: str) -> dict:
     return entry
 
 
-__all__ = ["History", "check_checkpoint", "check_checksum", "check_history", "read_history",
-           "seal_checkpoint"]
+THINNED = re.compile(r'\{"generation":(0|[1-9][0-9]{0,17}),"thinned":"([0-9a-f]{8})"\}')
+"""A thinned line of ``bests.jsonl`` (see the module docstring); written by
+:func:`thinned_line` exactly so, which is what a resume's cut-back writes it again as."""
+
+
+def thinned_line(generation: int, digest: str) -> str:
+    """The line that stands for a best of ``generation`` whose line had ``digest``."""
+    return json.dumps({"generation": generation, "thinned": digest}, separators=(",", ":"))
+
+
+def line_digest(name: str, line: str) -> str:
+    """The short digest the seal keeps of a line of ``log.csv`` (``name`` ``log``, its
+    elapsed time left out) or ``bests.jsonl`` (``bests``; a thinned line gives the digest of
+    the line it stands for)."""
+    if name == "bests":
+        thinned = THINNED.fullmatch(line)
+        if thinned:
+            return thinned[2]
+    return hashlib.sha256(_sealed_part(name, line).encode("utf-8")).hexdigest()[:8]
+
+
+__all__ = ["THINNED", "History", "check_checkpoint", "check_checksum", "check_history",
+           "line_digest", "read_history", "seal_checkpoint", "thinned_line"]

@@ -8,7 +8,8 @@ hills, is another experiment. The settings are read from the folder the genome i
 - a run directory (or a genome file inside one, such as its ``best.json``): its
   ``config.json`` gives duration, transient, preset and training terrain;
 - a reassembly folder (``reassembled.json`` beside a ``report.json``): the settings its
-  validation ran with.
+  validation ran with, and the training terrain its donors' runs shared (recorded as each
+  donor's ``terrain`` in ``report.json``).
 """
 
 from __future__ import annotations
@@ -37,7 +38,8 @@ class Origin:
     preset : str or None
         Simulator preset.
     terrain : str or None
-        A run's training terrains (a distribution name, :mod:`somite.tasks.distributions`).
+        A run's training terrains (a distribution name, :mod:`somite.tasks.distributions`);
+        a reassembly's: its donors' runs', when they shared one.
     modules : str or None
         A run's partition for omega, when it had one.
     validation_velocity : float or None
@@ -100,12 +102,33 @@ def _reassembly_origin(folder: Path) -> Origin:
     settings = data.get("validation") if isinstance(data, dict) else None
     if not isinstance(settings, dict):
         return Origin()
+    donors = data.get("donors")
+    terrains = {_text(d.get("terrain")) if isinstance(d, dict) else None
+                for d in (donors if isinstance(donors, list) else [])}
     return Origin(
         source=f"reassembly {folder}",
         duration=_number(settings.get("duration")),
         transient=_number(settings.get("transient")),
         preset=_text(settings.get("preset")),
+        terrain=terrains.pop() if len(terrains) == 1 else None,
     )
+
+
+def shared_origin(paths) -> Origin:
+    """What the runs of the genomes at ``paths`` (donors) all had: their settings when every
+    one has the same, their training terrain likewise, ``source`` naming them all
+    (``run a, run b``); an empty Origin when any has no run or none is shared."""
+    origins = [origin_of(path) for path in paths]
+    if not origins or not all(origin.source for origin in origins):
+        return Origin()
+    options = {tuple(sorted(origin.options().items())) for origin in origins}
+    terrains = {origin.terrain for origin in origins}
+    settings = dict(options.pop()) if len(options) == 1 else {}
+    terrain = terrains.pop() if len(terrains) == 1 else None
+    if not settings and terrain is None:
+        return Origin()
+    return Origin(source=", ".join(origin.source for origin in origins), terrain=terrain,
+                  **settings)
 
 
 def _last_validation(folder: Path) -> float | None:
@@ -141,4 +164,4 @@ def _text(value) -> str | None:
     return value if isinstance(value, str) and value else None
 
 
-__all__ = ["Origin", "origin_of"]
+__all__ = ["Origin", "origin_of", "shared_origin"]

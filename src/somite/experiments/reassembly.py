@@ -16,6 +16,7 @@ from .._io import make_folder, write_atomic
 from ..errors import bad
 from ..modules.reassembly import Take, paper_takes, reassemble, receiver_for
 from ..modules.transfer import transferability
+from .origin import origin_of
 from ..sim.partition import Partition
 from ..tasks.validation import VALIDATION_COUNT, validation_terrains
 
@@ -57,6 +58,8 @@ def write_reassembly(out: Path, genomes, files, partitions, config, *, receiver_
     report = result.to_dict()
     for entry, path in zip(report["donors"], files):
         entry["file"] = str(path)
+        # What a re-optimisation of the result trains on unless told (experiments.origin).
+        entry["terrain"] = origin_of(path).terrain
     report["file"] = "reassembled.json"
     if validation:
         report["validation"] = _validation(validation, seed, preset, result.genome, genomes,

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from .._io import write_atomic
 from ..brain.genome import Genome
+from ..errors import bad
 from ..sim.config import SimConfig
 from ..tasks.validation import VALIDATION_COUNT, ValidationSet, evaluate
 from ..tasks.velocity import mean_velocity, rho
@@ -42,6 +43,10 @@ def transfer_curve(run: str | Path, donors: Sequence[float], config: SimConfig,
     terrains = ValidationSet.of(n_terrains).terrains
     run_dir = RunDirectory(run)
     entries = [json.loads(line) for line in run_dir.file("bests.jsonl").read_text().splitlines()]
+    thinned = next((e["generation"] for e in entries if "genome" not in e), None)
+    if thinned is not None:  # `campaign pack` never thins a re-optimisation's; one by hand
+        raise bad("bests", str(run_dir.file("bests.jsonl")), f"the best of generation "
+                  f"{thinned} was thinned away; the transfer curve needs every best")
     keys = [json.dumps(e["genome"], sort_keys=True) for e in entries]
     distinct = list(dict.fromkeys(keys))
     genomes = [Genome.from_dict(json.loads(k)) for k in distinct]
@@ -68,7 +73,8 @@ def transfer_curve(run: str | Path, donors: Sequence[float], config: SimConfig,
 def reoptimize(config: RunConfig, out: str | Path | RunDirectory, start: Genome,
                donors: Sequence[Genome] = (), n_terrains: int = VALIDATION_COUNT,
                resume: bool = False,
-               force: bool = False, progress: Progress | None = None, backend: str = "cpu"):
+               force: bool = False, progress: Progress | None = None, backend: str = "cpu",
+               force_physics: bool = False):
     """Re-evolve ``start`` into the run directory ``out`` (:func:`~.runner.evolve`), then write
     ``transfer.csv`` against the ``donors``. The directory stays locked until that is written,
     as it is part of the run (``out`` may be a :class:`RunDirectory` its caller has locked).
@@ -77,14 +83,14 @@ def reoptimize(config: RunConfig, out: str | Path | RunDirectory, start: Genome,
     if not (isinstance(out, RunDirectory) and out.lock.held):
         with RunDirectory(out.path if isinstance(out, RunDirectory) else out).locked() as run_dir:
             return reoptimize(config, run_dir, start, donors, n_terrains, resume, force,
-                              progress, backend)
+                              progress, backend, force_physics)
     sim = config.setup.sim
     # The run's own validation set when rho is measured on as many terrains: built once.
     validation = config.setup.validation
     if validation.count != n_terrains:
         validation = ValidationSet(n_terrains)
     ea = evolve(config, out, resume=resume, force=force, progress=progress, start=start,
-                backend=backend)
+                backend=backend, force_physics=force_physics)
     velocities = donor_velocities(donors, sim, validation) if donors else []
     rows = transfer_curve(out.path, velocities, sim, validation)
     return ea, rows, velocities

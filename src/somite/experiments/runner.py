@@ -10,6 +10,8 @@ A run directory holds
   atomically at generation 0, every ``checkpoint_every`` generations and at the end, sealed
   with a checksum and a digest of every log row and best up to it
   (:func:`~.history.seal_checkpoint`);
+- ``physics.json``: the physics version the run started under, and every resume under another
+  one that the user forced (:mod:`.physics`); a resume under another physics is refused;
 - ``manifest.json``: the files above that the run wrote (``transfer.csv`` too, for a
   re-optimisation), written before them: ``--force`` deletes these and refuses a folder
   holding anything else;
@@ -65,9 +67,10 @@ from .history import (
 )
 from .lock import LOCK_NAME, RunLock
 from .logfile import LOG_COLUMNS, format_row
+from .physics import PHYSICS_FILE, check_resume, force_record, started
 
 RUN_FILES = ("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json",
-             "transfer.csv")
+             "transfer.csv", PHYSICS_FILE)
 MANIFEST = "manifest.json"
 """``manifest.json`` lists the files a run wrote: the only ones ``--force`` deletes."""
 def _is_temporary(name: str) -> bool:
@@ -266,8 +269,10 @@ class RunDirectory:
         elif self.has_run() and not restart:
             raise bad("out", str(self.path), "holds a run already; use --resume or --force")
         self.remove_own()
-        self.record("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json")
-        self.write_config(config)
+        self.record("config.json", "log.csv", "bests.jsonl", "best.json", "checkpoint.json",
+                    PHYSICS_FILE)
+        self.write_config(config)  # first: a run killed before it has no options to resume
+        write_atomic(self.file(PHYSICS_FILE), started())
         write_atomic(self.file("log.csv"), ",".join(LOG_COLUMNS) + "\n")
         write_atomic(self.file("bests.jsonl"), "")
 
@@ -345,6 +350,7 @@ def evolve(
     progress: Progress | None = None,
     start: Genome | None = None,
     backend: str = "cpu",
+    force_physics: bool = False,
 ) -> GraphEA:
     """Run (or resume) an evolution into the run directory ``out``; returns the EA at the end.
 
@@ -352,17 +358,19 @@ def evolve(
     its shape must be the configuration's. ``progress`` is called after every generation with
     the EA and the log row. The run directory is locked for the run (a second process is
     refused); a caller that needs it locked for longer passes a locked :class:`RunDirectory`.
-    ``backend`` (``cpu``, ``cuda``) is where the episodes run.
+    ``backend`` (``cpu``, ``cuda``) is where the episodes run. A resume under another physics
+    than the run's is refused unless ``force_physics`` (:mod:`.physics`).
     """
     if isinstance(out, RunDirectory) and out.lock.held:
-        return _evolve(config, out, resume, force, progress, start, backend)
+        return _evolve(config, out, resume, force, progress, start, backend, force_physics)
     with RunDirectory(out.path if isinstance(out, RunDirectory) else out).locked() as run_dir:
-        return _evolve(config, run_dir, resume, force, progress, start, backend)
+        return _evolve(config, run_dir, resume, force, progress, start, backend, force_physics)
 
 
 def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
-            progress: Progress | None, start: Genome | None, backend: str) -> GraphEA:
-    ea = open_run(config, run_dir, resume, force, start)
+            progress: Progress | None, start: Genome | None, backend: str,
+            force_physics: bool = False) -> GraphEA:
+    ea = open_run(config, run_dir, resume, force, start, force_physics)
     task = config.task(ea.body, backend)
     while ea.generation < config.generations:
         finish_generation(ea, step(ea, task, config), run_dir, config, progress)
@@ -370,7 +378,7 @@ def _evolve(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
 
 
 def open_run(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool,
-             start: Genome | None) -> GraphEA:
+             start: Genome | None, force_physics: bool = False) -> GraphEA:
     """The EA of a new run (its files started) or of a resumed one (its files cut back to
     the checkpoint); ``run_dir`` must be locked."""
     restart = False
@@ -392,6 +400,7 @@ def open_run(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool
         if ea.generation > config.generations:
             raise bad("generations", config.generations,
                       f"the checkpoint is at generation {ea.generation} already")
+        forced = check_resume(run_dir.path, force_physics, ea.generation)
     else:
         body = config.body() if start is None else start.body
         if body.shape != config.body().shape:
@@ -401,6 +410,9 @@ def open_run(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool
                      partition=config.setup.partition)
     config.task(ea.body)  # refuses a body the task cannot run before any file is touched
     if resume:
+        if forced is not None:
+            run_dir.record(PHYSICS_FILE)
+            force_record(run_dir.path, forced)
         run_dir.cut_back(ea.generation, history)
         # --resume --generations N; compared as written, so that a resume resolves nothing
         if run_dir.saved_options() != json.loads(json.dumps(config.to_dict())):

@@ -27,6 +27,7 @@ from .rerun import rerun_finals
 from .sections import TITLES
 from .staging import staged_report
 from .timelapse import draw_strips
+from .transfer import read_transfer
 
 
 def build_report(campaign_dir: str | Path, out: str | Path, validation: int = VALIDATION_COUNT,
@@ -68,6 +69,9 @@ def _write_report(campaign, loaded, new: Path, validation: int, timelapse: bool,
     report.update(_reassembly_figures(campaign, loaded, folder))
     report["discovery"] = _discovery(campaign, loaded, folder)
     report["validation"] = _validation(rows, validation, folder)
+    report["transfer"] = read_transfer(campaign.root, {
+        t.id: (t.experiment, evolution.task_shape(t, loaded)) for t in campaign.tasks
+        if t.kind == "evolve" and t.id in loaded.runs})
     stage("drawing the time-lapses")
     strips, drawn = draw_strips(rows, loaded, folder, new / "cache" / "timelapse.json") \
         if timelapse else ([], 0)
@@ -139,6 +143,7 @@ def _evolution_figures(campaign, loaded, reruns: dict, folder: Path) -> dict:
             files[which] = _save(figures.boxes_figure, panels, folder, f"{key}-{which}",
                                  label, f"{title} ({which})")
         out[key] = {"comparison": compared, "files": files}
+    out["figure3"]["paper"] = paper.figure3()
     out["figure5"]["paper"] = paper.ABLATION.to_dict()
     # The paper's test asks whether the first experiment (topology + weights) is the faster.
     labels = list(campaign.fed("figure5").values())

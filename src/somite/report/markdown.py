@@ -65,7 +65,7 @@ def _tests(comparison: dict, label: str) -> list[list]:
 def render_markdown(report: dict) -> str:
     lines: list[str] = []
     for part in (_head, _status, _table1, _curves, _boxes, _rho, _eta, _discovery,
-                 _discovered_reassembly, _validation, _timelapse):
+                 _discovered_reassembly, _validation, _transfer, _timelapse):
         lines += part(report)
     return "\n".join(lines).rstrip() + "\n"
 
@@ -162,8 +162,42 @@ def _curves(report: dict) -> list[str]:
         lines += [f"## {title}", "",
                   "Median ± sd across runs (line and band); dashed with dots: the median of the "
                   "logged validation v_x, where the runs measured it.", ""]
+        if key == "figure3":
+            lines += _figure3_beside_paper(report["figure3"])
         lines += _images(report[key]["files"], title)
     return lines
+
+
+def _figure3_beside_paper(data: dict) -> list[str]:
+    """Figure 3's curves at their two ends, median across runs, beside what the paper says
+    (v_x from section 5.1, |G| from Table 1)."""
+    reported = data.get("paper")
+    rows = []
+    for shape, groups in data["curves"].items():
+        for group, c in groups.items():
+            if not c["generation"]:
+                continue
+            last_validation = (f"{_n(c['validation_median'][-1])} (generation "
+                               f"{_n(c['validation_generation'][-1], 0)})"
+                               if c["validation_median"] else "n/a")
+            rows.append([shape, group, len(c["runs"]), _n(c["generation"][-1], 0),
+                         _n(c["velocity_median"][0]), _n(c["velocity_median"][-1]),
+                         last_validation, _n(c["size_median"][0], 1),
+                         _n(c["size_median"][-1], 1)])
+            if reported and shape in reported["size"]:
+                size = reported["size"][shape]
+                rows.append(["paper", "", "10", "3000",
+                             paper.Reported(**reported["velocity_start"]).show(),
+                             paper.Reported(**reported["velocity_end"]).show(),
+                             "not measured", paper.Reported(**size["initial"]).show(),
+                             paper.Reported(**size["final"]).show()])
+    if not rows:
+        return []
+    lines = ["The curves at both ends (median across runs), the paper's row below ours "
+             "(v_x: section 5.1, averaged over both shapes; |G|: Table 1):", ""]
+    return lines + _table(["shape", "group", "runs", "last generation", "v_x at generation 0",
+                           "v_x at the last (logged)", "v_x at the last validation",
+                           "\\|G\\| at generation 0", "\\|G\\| at the last"], rows)
 
 
 def _boxes(report: dict) -> list[str]:
@@ -301,6 +335,29 @@ def _validation(report: dict) -> list[str]:
     lines += _table(["robot", "logged v_x", "validation v_x (re-run)",
                      "validation v_x (run's own log)"], rows)
     return lines + _images(data["files"], "logged against validation v_x")
+
+
+def _transfer(report: dict) -> list[str]:
+    data = report.get("transfer") or {"present": False, "file": "transfer.csv", "rows": []}
+    lines = ["## Transfer: the final bests in 2D-VSR-Sim, the paper's simulator", "",
+             "Each run's final best re-run in 2D-VSR-Sim through the authors' controller "
+             "(`benchmarks/transfer.py` and the Java driver of "
+             "`shared/tools/closed-loop-2dvsrsim/`), with dyn4j as shipped (*stock*) and with "
+             "its continuous collision detection off (*noccd*, where it misfires against the "
+             "terrain); ratio = v_x there / v_x in somite, on the same terrains.", ""]
+    if not data["present"]:
+        return lines + [f"*Not measured yet: no `{data['file']}` in the campaign folder "
+                        "(columns task, engine, generation, somite_vx, vsr_vx, ratio; one row "
+                        "per run and engine, from `benchmarks/transfer.py`).*", ""]
+    rows = [[s["experiment"], s["shape"], s["engine"], s["runs"], _n(s["median_ratio"]),
+             s["not_finite"]] for s in data["summary"]]
+    lines += _table(["experiment", "shape", "engine", "runs", "median ratio",
+                     "ratio not finite"], rows)
+    rows = [[r["task"] + ("" if r["known"] else " (not a finished run of this campaign)"),
+             r["engine"], _n(r["generation"], 0) if r["generation"] is not None else "n/a",
+             _n(r["somite_vx"]), _n(r["vsr_vx"]), _n(r["ratio"])] for r in data["rows"]]
+    return lines + _table(["run", "engine", "generation", "v_x in somite", "v_x in 2D-VSR-Sim",
+                           "ratio"], rows)
 
 
 def _timelapse(report: dict) -> list[str]:

@@ -107,6 +107,14 @@ DISCOVERY = Reported(
 REOPTIMIZATION_GENERATIONS = Reported(510, "Section 5.2.2", "≈ 17 % of the 3000 generations")
 
 
+def figure3() -> dict:
+    """What the paper says of Figure 3's curves: the best's v_x at the start and the end
+    (section 5.1) and |G| at the start and the end (Table 1), per shape."""
+    return {"velocity_start": _V0.to_dict(), "velocity_end": _V1.to_dict(),
+            "size": {shape: {when: rows[when]["size"].to_dict() for when in ("initial", "final")}
+                     for shape, rows in TABLE1.items()}}
+
+
 def everything() -> dict:
     """Every reported number, as JSON-ready data (for report.json)."""
     return {

@@ -2,10 +2,10 @@
 solved with sequential impulses, as dyn4j 3.3 (the engine under 2D-VSR-Sim) solves them.
 
 Every function here works on one robot's arrays and is called from the episode of
-:mod:`somite.tasks.episode`; the CPU kernel (:mod:`somite.tasks.lanes`) also runs the position
-passes on a group of robots presented as one robot, their joints interleaved, and the joints'
-velocity passes on the group's robots as vector lanes (:mod:`somite.sim.joint_lanes`). A joint's
-arithmetic lives in one function (``spring_terms``, ``spring_impulse``, ``pushed``, ``rope_fix``,
+:mod:`somite.tasks.episode`; the CPU kernel (:mod:`somite.tasks.lanes`) runs the joints' passes
+and the move on a group's robots as vector lanes (:mod:`somite.sim.joint_lanes`) and the
+contacts' passes on each robot's lane. A joint's arithmetic lives in one function of values
+(``spring_terms``, ``spring_impulse``, ``pushed``, ``rope_fixed``, ``weld_fixed``, ``moved``,
 ...), which the passes over a robot's joints, and over a group's, call in order.
 A robot's state is one rigid square block per voxel corner (four per voxel,
 docs/original-system.md section 1.2): ``pos`` (P, 3) holds each block's centre and angle, ``vel``
@@ -28,8 +28,9 @@ from __future__ import annotations
 
 import math
 
-from .._jit import njit
+from .._jit import njit, uncounted
 from .config import BLOCK_SIDE, VOXEL_SIDE
+from .trig import sincos
 
 HALF_BLOCK = BLOCK_SIDE / 2
 BLOCK_REACH = HALF_BLOCK * math.sqrt(2.0)
@@ -91,27 +92,31 @@ def spring_length(kind: int, scale: float) -> float:
     return (VOXEL_SIDE * scale - BLOCK_SIDE) * math.sqrt(2.0)
 
 
-@njit(_nrt=False)
+@uncounted
 def set_rest_lengths(n_springs, kind, owner, actuation, contract, expand, rest):
     """``rest``: the rest length of each spring for its voxel's ``actuation`` (V,): from its
     group's rest length towards its length in a voxel of side ``contract`` x 3 m at +1, of
     ``expand`` x 3 m at -1, linearly."""
+    # The three lengths of each of the three groups, once a call rather than once a spring.
+    r0 = (spring_length(0, 1.0), spring_length(1, 1.0), spring_length(2, 1.0))
+    shorter = (r0[0] - spring_length(0, contract), r0[1] - spring_length(1, contract),
+               r0[2] - spring_length(2, contract))
+    longer = (spring_length(0, expand) - r0[0], spring_length(1, expand) - r0[1],
+              spring_length(2, expand) - r0[2])
     for s in range(n_springs):
         a = min(1.0, max(-1.0, actuation[owner[s]]))
         k = kind[s]
-        r0 = spring_length(k, 1.0)
         if a >= 0.0:
-            rest[s] = r0 - (r0 - spring_length(k, contract)) * a
+            rest[s] = r0[k] - shorter[k] * a
         else:
-            rest[s] = r0 + (spring_length(k, expand) - r0) * (-a)
+            rest[s] = r0[k] + longer[k] * (-a)
 
 
 @njit(inline="always")
 def turn(n_points, pos, cos, sin):
     """Each body's rotation, from its angle."""
     for p in range(n_points):
-        cos[p] = math.cos(pos[p, 2])
-        sin[p] = math.sin(pos[p, 2])
+        cos[p], sin[p] = sincos(pos[p, 2])
 
 
 @njit
@@ -325,21 +330,30 @@ def rope_solve(r, a, b, work, vel, inv_mass, inv_inertia):
               inv_mass[b], inv_inertia[b])
 
 
+@njit
+def rope_fixed(pa0, pa1, pb0, pb1, ima, imb):
+    """A rope limit's position pass on its bodies' centres (a at pa, b at pb): the impulse
+    (jx, jy) on a (its opposite on b), whether the limit is slack (then nothing moves) and
+    whether it holds."""
+    dx = pa0 - pb0
+    dy = pa1 - pb1
+    length = math.sqrt(dx * dx + dy * dy)
+    slack = length >= BLOCK_SIDE
+    nx = dx / length if length > 0.0 else dx
+    ny = dy / length if length > 0.0 else dy
+    error = max(length - BLOCK_SIDE, -MAX_CORRECTION)
+    j = -error / (ima + imb)
+    return nx * j, ny * j, slack, slack or not -error >= LINEAR_SLOP
+
+
 @njit(inline="always")
 def rope_fix(a, b, pos, inv_mass, inv_inertia) -> bool:
     """One position pass over the rope limit between a and b; whether it holds."""
-    nx = pos[a, 0] - pos[b, 0]
-    ny = pos[a, 1] - pos[b, 1]
-    length = math.sqrt(nx * nx + ny * ny)
-    if length >= BLOCK_SIDE:
-        return True
-    if length > 0.0:
-        nx /= length
-        ny /= length
-    error = max(length - BLOCK_SIDE, -MAX_CORRECTION)
-    j = -error / (inv_mass[a] + inv_mass[b])
-    push(pos, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, inv_mass, inv_inertia)
-    return not -error >= LINEAR_SLOP
+    jx, jy, slack, held = rope_fixed(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], inv_mass[a],
+                                     inv_mass[b])
+    if not slack:
+        push(pos, a, b, 0.0, 0.0, 0.0, 0.0, jx, jy, inv_mass, inv_inertia)
+    return held
 
 
 @njit(inline="always")
@@ -439,27 +453,34 @@ def weld_solve(q, a, b, work, vel, inv_mass, inv_inertia):
     weld_push(vel, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia)
 
 
+@njit
+def weld_fixed(pa0, pa1, pa2, pb0, pb1, pb2, rbx, rby, ima, iia, imb, iib):
+    """A weld's position pass (the whole error at once, as dyn4j's rigid WeldJoint) on its
+    bodies' positions (rb: its anchor's offset from b, turned): the impulse (jx, jy, jz) on a
+    (its opposite on b, :func:`weld_pushed`) and whether the weld holds."""
+    cx = pa0 - pb0 - rbx
+    cy = pa1 - pb1 - rby
+    angle = pa2 - pb2
+    angle = angle + 2.0 * math.pi if angle < -math.pi else angle
+    angle = angle - 2.0 * math.pi if angle > math.pi else angle
+    k00, k01, k02, k11, k12, k22 = weld_matrix(ima, iia, imb, iib, rbx, rby)
+    jx, jy, jz = solve33(k00, k01, k02, k11, k12, k22, -cx, -cy, -angle)
+    return jx, jy, jz, not (math.sqrt(cx * cx + cy * cy) > LINEAR_SLOP
+                             or abs(angle) > ANGULAR_SLOP)
+
+
 @njit(inline="always")
 def weld_fix(q, a, b, anchor, pos, cos, sin, inv_mass, inv_inertia) -> bool:
-    """One position pass over weld q between a and b (the whole error at once, as dyn4j's
-    rigid WeldJoint); whether it holds. Updates the rotations it changes."""
+    """One position pass over weld q between a and b (:func:`weld_fixed`); whether it holds.
+    Updates the rotations it changes."""
     rbx, rby = turned(b, anchor[q, 0], anchor[q, 1], cos, sin)
-    cx = pos[a, 0] - pos[b, 0] - rbx
-    cy = pos[a, 1] - pos[b, 1] - rby
-    angle = pos[a, 2] - pos[b, 2]
-    if angle < -math.pi:
-        angle += 2.0 * math.pi
-    if angle > math.pi:
-        angle -= 2.0 * math.pi
-    k00, k01, k02, k11, k12, k22 = weld_matrix(inv_mass[a], inv_inertia[a], inv_mass[b],
-                                               inv_inertia[b], rbx, rby)
-    jx, jy, jz = solve33(k00, k01, k02, k11, k12, k22, -cx, -cy, -angle)
+    jx, jy, jz, held = weld_fixed(pos[a, 0], pos[a, 1], pos[a, 2], pos[b, 0], pos[b, 1],
+                                  pos[b, 2], rbx, rby, inv_mass[a], inv_inertia[a],
+                                  inv_mass[b], inv_inertia[b])
     weld_push(pos, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia)
-    cos[a] = math.cos(pos[a, 2])
-    sin[a] = math.sin(pos[a, 2])
-    cos[b] = math.cos(pos[b, 2])
-    sin[b] = math.sin(pos[b, 2])
-    return not (math.sqrt(cx * cx + cy * cy) > LINEAR_SLOP or abs(angle) > ANGULAR_SLOP)
+    cos[a], sin[a] = sincos(pos[a, 2])
+    cos[b], sin[b] = sincos(pos[b, 2])
+    return held
 
 
 @njit(inline="always")
@@ -490,7 +511,7 @@ def fix_welds(robot, pos, cos, sin) -> bool:
     return held
 
 
-@njit(_nrt=False)
+@uncounted
 def start_contacts(robot, scratch, pos, vel, params):
     """Set up this step's contacts (found at the end of the last step) and apply their
     warm-start impulses.
@@ -663,13 +684,11 @@ def solve_contacts(robot, scratch, vel):
 
 
 @njit(inline="always")
-def fix_contacts(robot, scratch, pos) -> bool:
+def fix_contacts(robot, scratch, pos, cos, sin) -> bool:
     """One position pass over the contacts: each pushes its bodies apart by a share
     (BAUMGARTE) of its penetration beyond LINEAR_SLOP; whether none is deeper than three
-    times LINEAR_SLOP."""
+    times LINEAR_SLOP. ``pos``, ``cos``, ``sin``: the bodies' positions and rotations."""
     c = scratch.contacts
-    cos = scratch.cos
-    sin = scratch.sin
     inv_mass = robot.inv_mass
     inv_inertia = robot.inv_inertia
     deepest = 0.0
@@ -704,11 +723,9 @@ def fix_contacts(robot, scratch, pos) -> bool:
         c[k, C_JP] = max(j0 + j, 0.0)
         j = c[k, C_JP] - j0
         push(pos, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass, inv_inertia)
-        cos[a] = math.cos(pos[a, 2])
-        sin[a] = math.sin(pos[a, 2])
+        cos[a], sin[a] = sincos(pos[a, 2])
         if b >= 0:
-            cos[b] = math.cos(pos[b, 2])
-            sin[b] = math.sin(pos[b, 2])
+            cos[b], sin[b] = sincos(pos[b, 2])
     return deepest >= -3.0 * LINEAR_SLOP
 
 
@@ -723,7 +740,7 @@ def segment_near(xs, n, x, guess) -> int:
     return i
 
 
-@njit(_nrt=False)
+@uncounted
 def ground_height(xs, ys, n, x, guess) -> float:
     """Height [m] of the terrain at x (``guess``: a segment index near x)."""
     i = segment_near(xs, n, x, guess)
@@ -957,7 +974,7 @@ def add_contacts(robot, scratch, pos, a, b, partner, one, two, mu) -> int:
     return points
 
 
-@njit(_nrt=False)
+@uncounted
 def find_contacts(robot, ground, scratch, pos, params):
     """The contacts for the next step (dyn4j finds them after each step): each block against
     the ground under every terrain segment its bounding box reaches, and the blocks that share
@@ -1022,27 +1039,31 @@ def velocities(robot, vel, params):
         vel[p, 2] *= keep
 
 
+@njit
+def moved(p0, p1, p2, v0, v1, v2, dt):
+    """A body's position and velocity after it moves for ``dt`` with velocity (v0, v1, v2), at
+    most MAX_TRANSLATION and MAX_ROTATION a step (a faster velocity is cut to that): the new
+    position, then the velocity."""
+    tx = v0 * dt
+    ty = v1 * dt
+    square = tx * tx + ty * ty
+    ratio = MAX_TRANSLATION / math.sqrt(square)
+    fast = square > MAX_TRANSLATION * MAX_TRANSLATION
+    v0 = v0 * ratio if fast else v0
+    v1 = v1 * ratio if fast else v1
+    rotation = v2 * dt
+    spin = rotation * rotation > MAX_ROTATION * MAX_ROTATION
+    v2 = v2 * (MAX_ROTATION / abs(rotation)) if spin else v2
+    return p0 + v0 * dt, p1 + v1 * dt, p2 + v2 * dt, v0, v1, v2
+
+
 @njit(inline="always")
 def positions(robot, scratch, pos, vel, params):
-    """Move the bodies with their velocities, at most MAX_TRANSLATION and MAX_ROTATION a
-    step (faster velocities are cut to that)."""
-    dt = params.dt
+    """Move the bodies with their velocities (:func:`moved`) and turn them."""
     for p in range(robot.n_points):
-        tx = vel[p, 0] * dt
-        ty = vel[p, 1] * dt
-        square = tx * tx + ty * ty
-        if square > MAX_TRANSLATION * MAX_TRANSLATION:
-            ratio = MAX_TRANSLATION / math.sqrt(square)
-            vel[p, 0] *= ratio
-            vel[p, 1] *= ratio
-        rotation = vel[p, 2] * dt
-        if rotation * rotation > MAX_ROTATION * MAX_ROTATION:
-            vel[p, 2] *= MAX_ROTATION / abs(rotation)
-        pos[p, 0] += vel[p, 0] * dt
-        pos[p, 1] += vel[p, 1] * dt
-        pos[p, 2] += vel[p, 2] * dt
-        scratch.cos[p] = math.cos(pos[p, 2])
-        scratch.sin[p] = math.sin(pos[p, 2])
+        pos[p, 0], pos[p, 1], pos[p, 2], vel[p, 0], vel[p, 1], vel[p, 2] = moved(
+            pos[p, 0], pos[p, 1], pos[p, 2], vel[p, 0], vel[p, 1], vel[p, 2], params.dt)
+        scratch.cos[p], scratch.sin[p] = sincos(pos[p, 2])
 
 
 @njit(inline="always")
@@ -1060,7 +1081,7 @@ def step(robot, ground, scratch, pos, vel, params):
         solve_contacts(robot, scratch, vel)
     positions(robot, scratch, pos, vel, params)
     for _ in range(params.position_iterations):
-        contacts_held = fix_contacts(robot, scratch, pos)
+        contacts_held = fix_contacts(robot, scratch, pos, scratch.cos, scratch.sin)
         ropes_held = fix_ropes(robot, pos)
         welds_held = fix_welds(robot, pos, scratch.cos, scratch.sin)
         if contacts_held and ropes_held and welds_held:
@@ -1068,12 +1089,12 @@ def step(robot, ground, scratch, pos, vel, params):
     find_contacts(robot, ground, scratch, pos, params)
 
 
-@njit(_nrt=False)
+@uncounted
 def advance(robot, ground, scratch, pos, vel, params, substeps):
     """One control step of physics: ``substeps`` steps under the rest lengths of
     ``scratch.rest``, from any state (the bodies' rotations are taken afresh).
 
-    Compiled without Numba's reference counting (``_nrt=False``: nothing here allocates), as
+    Compiled without Numba's reference counting (``_jit.uncounted``: nothing here allocates), as
     every field read from the per-robot tuples would otherwise cost an atomic increment and
     decrement on each step.
     """
@@ -1088,7 +1109,7 @@ def voxel_corners(corners, v):
     return corners[v, 0], corners[v, 1], corners[v, 2], corners[v, 3]
 
 
-@njit(_nrt=False)
+@uncounted
 def corner_state(robot, pos, vel, cos, sin, corner_pos, corner_vel):
     """Each block's outer corner (the voxel's corner it carries) and the block's velocity:
     what the sensors, the recording and the diagnostics see (the original's voxel velocity is
@@ -1103,7 +1124,7 @@ def corner_state(robot, pos, vel, cos, sin, corner_pos, corner_vel):
         corner_vel[p, 1] = vel[p, 1]
 
 
-@njit(_nrt=False)
+@uncounted
 def lowest_gap(robot, ground, pos, cos, sin, guess) -> float:
     """How high [m] the robot's lowest block corner is above the ground under it (``cos``,
     ``sin`` as for :func:`corner_state`; ``guess``: a segment index near the robot)."""

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from .._jit import njit
+from .._jit import njit, uncounted
 from .._math import tanh
 from .config import SimConfig
 from .java_random import JavaRandom
@@ -95,7 +95,7 @@ def soft_normalise(x, low, high) -> float:
     return 0.5 + 0.5 * tanh(2.0 * (2.0 * v - 1.0))
 
 
-@njit(_nrt=False)
+@uncounted
 def voxel_state(n_voxels, corners, pos, vel, angle, out):
     """Per voxel: centre x, y, velocity x, y, area ratio, angle -> ``out`` (V, 6).
 
@@ -137,7 +137,7 @@ def voxel_state(n_voxels, corners, pos, vel, angle, out):
         out[v, 4] = 0.5 * area / VOXEL_AREA
 
 
-@njit(_nrt=False)
+@uncounted
 def raycast(x0, y0, dx, dy, reach, xs, ys, n, guess) -> float:
     """Distance along the unit ray (dx, dy) from (x0, y0) to the terrain, or ``reach``.
 
@@ -163,7 +163,7 @@ def raycast(x0, y0, dx, dy, reach, xs, ys, n, guess) -> float:
     return best
 
 
-@njit(_nrt=False)
+@uncounted
 def update_histories(step, n_voxels, corners, contact, voxels, touch_hist, vel_hist, params):
     """Store this step's touch and velocity (in the configured frame) in the ring buffers."""
     wt = int(params.touch_window)
@@ -185,7 +185,7 @@ def update_histories(step, n_voxels, corners, contact, voxels, touch_hist, vel_h
         vel_hist[v, step % wv, 1] = vy
 
 
-@njit(_nrt=False)
+@uncounted
 def _window_mean(hist, v, step, window, column) -> float:
     count = min(step + 1, window)
     total = 0.0
@@ -194,7 +194,7 @@ def _window_mean(hist, v, step, window, column) -> float:
     return total / count
 
 
-@njit(_nrt=False)
+@uncounted
 def sense(step, seed, n_readings, codes, reading_voxel, voxels, touch_hist, vel_hist, rays,
           xs, ys, n_terrain, guess, params, noise, readings):
     """Fill ``readings`` (R,) for control step ``step`` (from 0; histories already updated);

@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._jit import njit
+from .._jit import njit, uncounted
 from ..brain.kernels import graph_step
 from ..brain.openloop import sine_actuation, table_actuation
 from ..sim.config import CONTROL_HZ
@@ -203,7 +203,7 @@ def new_trace(n_robots: int, n_steps: int, system, record: bool) -> Trace:
     )
 
 
-@njit(_nrt=False)
+@uncounted
 def _centre_of_mass(n_points, mass, pos):
     total = 0.0
     x = 0.0
@@ -215,7 +215,7 @@ def _centre_of_mass(n_points, mass, pos):
     return x / total, y / total
 
 
-@njit(_nrt=False)
+@uncounted
 def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
     """|angle| [deg] of the line from the leftmost column's centre to the rightmost's."""
     if x_lo == x_hi:
@@ -236,7 +236,7 @@ def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
     return abs(math.degrees(math.atan2(dy, dx)))
 
 
-@njit(_nrt=False)
+@uncounted
 def _observe(k, robot, ground, n_points, mass, pos, vel, cos, sin, cx, cy, tilt, near, params,
              out):
     """Update the episode's diagnostics ``out`` (D_*) with control step ``k``; ``pos``,
@@ -262,7 +262,7 @@ def _observe(k, robot, ground, n_points, mass, pos, vel, cos, sin, cx, cy, tilt,
     out[D_MAX_COM_SPEED] = max(out[D_MAX_COM_SPEED], speed)
 
 
-@njit(_nrt=False)
+@uncounted
 def _record(b, step, n_points, n_voxels, n_readings, pos, contact, actuation, readings, trace):
     for p in range(n_points):
         trace.pos[b, step, p, 0] = pos[p, 0]
@@ -274,7 +274,7 @@ def _record(b, step, n_points, n_voxels, n_readings, pos, contact, actuation, re
         trace.readings[b, step, r] = readings[r]
 
 
-@njit(_nrt=False)
+@uncounted
 def _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation, params):
     kind = ctrl.kind[b]
     if kind == SINE:
@@ -337,9 +337,9 @@ def work_row(work, b, system, ctrl) -> Work:
     return _work_views(work, b, system, ctrl)
 
 
-@njit(_nrt=False)
+@uncounted
 def borrowed_work_row(work, b, system, ctrl) -> Work:
-    """:func:`work_row` for kernels compiled without reference counting (``_nrt=False``), and
+    """:func:`work_row` for kernels compiled without reference counting (``_jit.uncounted``), and
     only for them: the compiled :func:`work_row` returns views that it has counted, which such
     a kernel never releases (each batch's arrays then stayed in memory: 11 MB a batch of 96
     worms); these views are counted by no one, as the kernel's own are not."""

@@ -47,7 +47,9 @@ class Outcome:
     distance: float
     final_com: tuple[float, float]
     max_speed: float
-    """Highest speed of any block over the episode [m/s]."""
+    """Highest speed of any of the robot's rigid blocks (four 1.2 m blocks a voxel) over the
+    episode [m/s]. Voxels deforming at a few hertz move their blocks fast: a 2 Hz sine worm's
+    reach 25 m/s, smoothly."""
     finite: bool
     min_signed_area_ratio: float = math.nan
     """Smallest signed area of a voxel over its rest area (< 0: a voxel turned inside out)."""
@@ -58,10 +60,14 @@ class Outcome:
     """Share of the scored steps (after ``transient``) with that angle over 90 degrees."""
     max_height: float = math.nan
     """Highest that the robot's lowest block corner got above the ground, after the first 2 s
-    [m]."""
+    [m]: how high it jumped."""
     min_height: float = math.nan
-    """Lowest that it got, after the first 2 s [m]: how far the blocks sank into the ground
-    (< 0), or how high the robot stayed (a robot on its back still has blocks on the ground)."""
+    """Lowest that it got, after the first 2 s [m]. Measured vertically, from the corner to the
+    terrain's line at the corner's x: < 0 is a corner inside the ground, as a block found in
+    contact only after a 1/60 s step that took it into the ground (a block landing at 10 m/s
+    goes 0.17 m in a step; the position passes push it out over the next steps), or a corner
+    against one of the two end walls, whose faces are so steep (10 m across for 100 m up) that
+    a corner 6 cm inside one reads 0.6 m below its line. > 0: the robot never touched."""
     non_finite: int = 0
     """Control steps at which a controller output (actuation) or the physics state (corner
     positions, velocities) held a NaN or an infinity. The episode stops at the first
@@ -82,6 +88,25 @@ class Outcome:
             "min_height": self.min_height,
             "non_finite": self.non_finite,
         }
+
+
+OUTCOME_UNITS = {
+    "velocity": ("m/s", "v_x: mean forward velocity over [transient, end]"),
+    "distance": ("m", "forward travel of the centre of mass, whole episode"),
+    "final_com": ("m", "centre of mass (x, y) at the end"),
+    "max_speed": ("m/s", "fastest any rigid block moved, at any step"),
+    "finite": ("", "False: the state went NaN or infinite; stopped"),
+    "min_signed_area_ratio": ("", "smallest voxel area / rest area (< 0: inside out)"),
+    "max_tilt_deg": ("deg", "largest tilt after 2 s (> 90: on its side)"),
+    "flipped_fraction": ("", "share of scored steps tilted past 90 deg"),
+    "max_height": ("m", "highest its lowest block corner got after 2 s"),
+    "min_height": ("m", "lowest it got (< 0: into the ground or a wall)"),
+    "non_finite": ("control steps", "steps with a NaN or infinite actuation or state"),
+}
+"""Every :meth:`Outcome.to_dict` key: its unit ("" for a pure number or a flag) and what it
+is in a few words, as ``somite simulate`` prints it (its ``--json`` carries the units as
+``units``). The README ("Honest numbers") says more on each diagnostic; ``min_height`` is a
+vertical distance, see :attr:`Outcome.min_height`."""
 
 
 def compile_controllers(controllers: Sequence[Controller], n_voxels: Sequence[int]) -> Controllers:

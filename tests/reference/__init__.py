@@ -1,0 +1,1 @@
+"""Slow, readable NumPy oracles of somite's compiled kernels (docs: each module's docstring)."""

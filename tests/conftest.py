@@ -88,11 +88,12 @@ def voxel_geometry(body: Body, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return quads.mean(axis=1), area / 9.0
 
 
-def expect_error(field, build):
-    """``build()`` must raise a one-line SomiteError whose message starts with ``field=``."""
+def expect_error(field, build, kind=None):
+    """``build()`` must raise a one-line SomiteError (or ``kind``, a subclass) whose message
+    starts with ``field=``."""
     from somite.errors import SomiteError
 
-    with pytest.raises(SomiteError) as info:
+    with pytest.raises(kind or SomiteError) as info:
         build()
     message = str(info.value)
     assert message.startswith(f"{field}="), message

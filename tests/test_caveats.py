@@ -63,7 +63,7 @@ def test_test_records_carry_the_caveat_only_for_small_groups():
 
 def fake_run(root, name, velocity, shape="worm", n_rows=3, **options):
     """A run directory as ``somite evolve`` writes it (config.json resolved, log.csv, best.json
-    an initial genome), ending at ``velocity``; nothing simulated."""
+    and bests.jsonl an initial genome), ending at ``velocity``; nothing simulated."""
     folder = root / name
     folder.mkdir(parents=True)
     config = resolve({"shape": shape, **options})
@@ -78,7 +78,12 @@ def fake_run(root, name, velocity, shape="worm", n_rows=3, **options):
         rows.append(format_row(row))
     (folder / "log.csv").write_text("\n".join(rows) + "\n")
     body = Body.build(shape)
-    initial_genome(body, np.random.default_rng(len(name))).save(folder / "best.json")
+    best = initial_genome(body, np.random.default_rng(len(name)))
+    best.save(folder / "best.json")
+    (folder / "bests.jsonl").write_text("".join(
+        json.dumps({"generation": g, "velocity": velocity * (g + 1) / n_rows,
+                    "operator": "add_edge", "genome": json.loads(best.to_compact())}) + "\n"
+        for g in range(n_rows)))
     return folder
 
 

@@ -3,7 +3,7 @@
 Read statically from the source, so an import inside a function counts like one at the top:
 
 - the foundation (``errors``, ``limits``, ``budget``, ``_io``, ``_jit``, ``_threads``, ``_math``,
-  ``formats``, ``types``) imports no other part;
+  ``formats``, ``types``, ``checks``) imports no other part;
 - ``sim`` (physics and the body description) and ``brain`` (the controller) are independent,
   except that a genome is written for a body: ``brain`` may import ``sim.body``, which itself
   imports nothing of the simulator;
@@ -27,7 +27,8 @@ import pytest
 
 SOURCE = Path(__file__).resolve().parents[1] / "src" / "somite"
 
-FOUNDATION = {"errors", "limits", "budget", "_io", "_jit", "_threads", "_math", "types", "formats"}
+FOUNDATION = {"errors", "limits", "budget", "_io", "_jit", "_threads", "_math", "types", "formats",
+              "checks"}
 BELOW_TOP = {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis", "viz",
              "bench", "campaigns", "envs"}
 ALLOWED = {

@@ -298,12 +298,28 @@ def _why(error: ValueError) -> str:
     return message
 
 
+class _DuplicateKey(ValueError):
+    pass
+
+
+def _no_duplicates(pairs: list) -> dict:
+    """A JSON object's pairs as a dict; a key twice is refused (json keeps the last one, so a
+    trailing ``"edges": []`` would silently drop every edge before it)."""
+    data = dict(pairs)
+    if len(data) != len(pairs):
+        seen = set()
+        twice = next(key for key, _ in pairs if key in seen or seen.add(key))
+        raise _DuplicateKey(f"the key {twice!r} appears twice in one object")
+    return data
+
+
 def parse_json(text: str, field: str, where: str):
-    """JSON ``text`` or a one-line error: invalid, nested too deeply, an integer too long."""
-
-
+    """JSON ``text`` or a one-line error: invalid, nested too deeply, an integer too long, a
+    key given twice in one object."""
     try:
-        return json.loads(text)
+        return json.loads(text, object_pairs_hook=_no_duplicates)
+    except _DuplicateKey as error:
+        raise bad(field, where, f"not valid somite JSON ({error})") from None
     except RecursionError:
         raise bad(field, where, "not valid JSON (nested too deeply)") from None
     except ValueError as error:  # JSONDecodeError, or an integer of thousands of digits

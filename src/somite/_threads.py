@@ -16,6 +16,10 @@ from concurrent.futures import Executor, ThreadPoolExecutor, wait
 
 import numba
 
+THREAD_NAME = "somite-spread"
+"""The name prefix of the helper threads :func:`spread` starts (the command line looks for
+them when it is interrupted: see :func:`somite.cli.main`)."""
+
 
 def threads_for(n_tasks: int) -> int:
     """The threads that ``n_tasks`` tasks get: Numba's thread count, at most one a task."""
@@ -34,20 +38,39 @@ def spread(task: Callable[[int], None], n_tasks: int, pool: Executor | None = No
             task(i)
         return
     if pool is None:
-        with ThreadPoolExecutor(helpers) as own:
+        own = ThreadPoolExecutor(helpers, thread_name_prefix=THREAD_NAME)
+        interrupted = True
+        try:
             spread(task, n_tasks, own)
+            interrupted = False
+        finally:
+            own.shutdown(wait=not interrupted, cancel_futures=True)
         return
     # next() on a range iterator is one step under the GIL, so no task is taken twice.
     todo = iter(range(n_tasks))
+    stop = []
 
     def drain() -> None:
         for i in todo:
+            if stop:
+                return
             task(i)
 
     futures = [pool.submit(drain) for _ in range(min(helpers, n_tasks - 1))]
     try:
         drain()
-    finally:
+    except (KeyboardInterrupt, SystemExit):
+        # Ctrl-C or SIGTERM (raised in this, the main, thread): stop handing out tasks and
+        # do not wait for those under way, which cannot be interrupted: a kernel's first
+        # compile takes minutes, and a command must stop within a second or two. Their
+        # results are never read; the command line then ends the process (cli.main).
+        stop.append(True)
+        for future in futures:
+            future.cancel()
+        raise
+    except BaseException:
         wait(futures)
+        raise
+    wait(futures)
     for future in futures:
         future.result()

@@ -22,6 +22,7 @@ import sys
 import threading
 
 from . import commands
+from .commands._environment import check_environment
 from .errors import SomiteError, bad
 
 
@@ -77,6 +78,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 EXIT_BROKEN_PIPE = 141
 """The exit code when the reader of standard output went away (128 + SIGPIPE)."""
+EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143
+"""The exit codes of a command stopped by Ctrl-C (128 + SIGINT) or SIGTERM (128 + SIGTERM)."""
 
 
 class _StdoutFailed(Exception):
@@ -190,20 +193,62 @@ class _Terminated(KeyboardInterrupt):
     ``finally`` runs, so no temporary file of an unfinished write is left behind."""
 
 
-def _on_sigterm(signum, frame):
-    raise _Terminated()
+class _Stopping:
+    """The handler of SIGINT and SIGTERM while :func:`main` runs: the first of them unwinds
+    the command (KeyboardInterrupt, or :class:`_Terminated`); any later one is ignored, so
+    that it cannot raise again inside a ``finally`` or inside the "interrupted" message (a
+    Ctrl-C followed by a ``kill`` gave two tracebacks)."""
+
+    def __init__(self) -> None:
+        self.signalled = False
+
+    def __call__(self, signum, frame):
+        if self.signalled:
+            return
+        self.signalled = True
+        raise _Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
+_STOPPED_BY = (signal.SIGINT, signal.SIGTERM)
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``somite ARGV``; the exit code. Without ``argv`` (the ``somite`` program itself,
+    reading ``sys.argv``), an interrupted command ends the process at once when a kernel is
+    still running on a helper thread (a first compile takes minutes and cannot be stopped;
+    every ``finally`` of the command has run, so nothing half-written is left)."""
     # Only the main thread may set a handler; a command run from a worker's thread keeps its
     # process's own.
     in_main = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _on_sigterm) if in_main else None
+    previous = {}
+    if in_main:
+        handler = _Stopping()
+        previous = {s: signal.signal(s, handler) for s in _STOPPED_BY}
     try:
-        return _main(argv)
+        code = _main(argv)
     finally:
-        if in_main:
-            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+        for number, before in previous.items():
+            if argv is None and handler.signalled:
+                # The program is stopping: a signal after the first still must not kill it
+                # with another exit code, nor raise on its way out.
+                signal.signal(number, signal.SIG_IGN)
+            else:
+                signal.signal(number, signal.SIG_DFL if before is None else before)
+    if argv is None and code in (EXIT_INTERRUPTED, EXIT_TERMINATED) and _helpers_running():
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (AttributeError, OSError, ValueError):
+                pass
+        os._exit(code)
+    return code
+
+
+def _helpers_running() -> bool:
+    """Whether a helper thread of :func:`somite._threads.spread` is still alive."""
+    from ._threads import THREAD_NAME
+
+    return any(t.name.startswith(THREAD_NAME) and t.is_alive() for t in threading.enumerate())
 
 
 def _main(argv: list[str] | None) -> int:
@@ -233,6 +278,12 @@ def _main(argv: list[str] | None) -> int:
 
 def _run(argv: list[str] | None, prog: list[str]) -> int:
     """Parse ``argv`` and run its command; ``prog[0]`` becomes the command's name."""
+    try:
+        # Before the commands' imports, which would fail on it with a traceback.
+        check_environment()
+    except SomiteError as error:
+        _say(f"somite: error: {error}")
+        return 2
     parser = build_parser()
     args = parser.parse_args(argv)
     prog[0] = args.prog
@@ -246,10 +297,10 @@ def _run(argv: list[str] | None, prog: list[str]) -> int:
         return 2
     except _Terminated:
         _say(f"{args.prog}: terminated")
-        return 143
+        return EXIT_TERMINATED
     except KeyboardInterrupt:
         _say(f"{args.prog}: interrupted")
-        return 130
+        return EXIT_INTERRUPTED
     except OSError as error:
         if error.errno != errno.ENAMETOOLONG:
             raise

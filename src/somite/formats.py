@@ -82,6 +82,17 @@ class FileFormat:
         raise bad(f"{prefix}{key}" if key else self.what, value, reason)
 
 
+def known_keys(data, allowed: tuple[str, ...], field: str) -> None:
+    """Refuse a key of the JSON object ``data`` (at ``field``) that is not ``allowed``: a
+    reader that skipped it would drop what the writer meant (a misspelt ``edgse``), or carry
+    megabytes of it along unread. Not an object: left to the reader's own check."""
+    if isinstance(data, dict):
+        for key in data:
+            if key not in allowed:
+                raise bad(f"{field}.{key}" if field else key, data[key],
+                          f"unknown key; {field or 'the file'} has {', '.join(allowed)}")
+
+
 GENOME = FileFormat("somite-genome", 1, "genome")
 MODULE = FileFormat("somite-module", 1, "module")
 PARTITION = FileFormat("somite-partition", 1, "partition")
@@ -124,4 +135,5 @@ __all__ = [
     "REPORT_CACHE",
     "RUN_PHYSICS",
     "FileFormat",
+    "known_keys",
 ]

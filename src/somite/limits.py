@@ -19,6 +19,12 @@ MAX_SHAPE_SIDE = 32
 """Voxels along either side of a body's grid."""
 MAX_VALIDATION = 1_000
 """Validation terrains."""
+MAX_STEPPED = 10_000
+"""Robots of an :class:`~somite.tasks.stepper.Episode`, stepped from Python: a population."""
+MAX_BATCH = 1_000_000
+"""Robots of one batch given to the API (``simulate_batch``, ``evaluate_genomes``: genomes
+times terrains); a batch is also refused when it would need more than half of the machine's
+memory (:func:`somite.budget.check_batch`)."""
 MAX_FRAMES = 1_000
 """Tiles of a time-lapse strip."""
 MIN_FPS = 1.0

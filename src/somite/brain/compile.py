@@ -49,4 +49,5 @@ def compile_genome(genome: Genome) -> GraphArrays:
         dst=index.dst.astype(np.int32),
         weight=weight,
         bias=bias,
+        body=genome.body,
     )

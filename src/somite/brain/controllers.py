@@ -62,6 +62,9 @@ class GraphArrays:
     dst: np.ndarray  # (E,) int32
     weight: np.ndarray  # (E,)
     bias: np.ndarray  # (E,)
+    body: object = None
+    """The :class:`~somite.sim.body.Body` it was compiled for (None: not known), so that a
+    batch refuses it on another body instead of reading past that body's readings."""
 
     @property
     def n_nodes(self) -> int:

@@ -30,7 +30,7 @@ import numpy as np
 
 from .._io import parse_json, read_json, write_atomic
 from ..errors import bad
-from ..formats import GENOME
+from ..formats import GENOME, known_keys
 from ..limits import MAX_WEIGHT
 from ..sim.body import Body
 from .kinds import ACTUATOR, HIDDEN, KIND_CODE, KIND_DTYPE, NODE_KINDS, SENSOR
@@ -202,6 +202,7 @@ class Genome:
     def from_dict(cls, data: dict) -> Genome:
         """Inverse of :meth:`to_dict`; also reads the compact form's list rows."""
         GENOME.check(data)
+        known_keys(data, ("format", "version", "body", "nodes", "edges"), "")
         if "body" not in data:
             raise bad("body", None, "a genome file needs the body it was evolved for")
         body = Body.from_dict(data["body"])
@@ -460,6 +461,12 @@ def _check_edges(edges, position: dict, kinds: list):
 # -- JSON helpers -------------------------------------------------------------------------------
 
 
+NODE_KEYS = ("id", "x", "y", "kind", "slot")
+"""The keys of a node in a genome or module file."""
+EDGE_KEYS = ("src", "dst", "weight", "bias")
+"""The keys of an edge in a genome or module file."""
+
+
 def _rows(data: dict, key: str) -> list:
     rows = data.get(key)
     if not isinstance(rows, list):
@@ -468,6 +475,7 @@ def _rows(data: dict, key: str) -> list:
 
 
 def _node_from(item, i: int) -> Node:
+    known_keys(item, NODE_KEYS, f"nodes[{i}]")
     try:
         if isinstance(item, list):
             node_id, x, y, kind, slot = item
@@ -478,6 +486,7 @@ def _node_from(item, i: int) -> Node:
 
 
 def _edge_from(item, i: int) -> Edge:
+    known_keys(item, EDGE_KEYS, f"edges[{i}]")
     try:
         if isinstance(item, list):
             src, dst, weight, bias = item

@@ -29,7 +29,7 @@ from ..experiments.lock import LOCK_NAME, read_holder
 from .fields import check_name
 from .figures import FIGURES
 from .kinds import KINDS, needs
-from .layout import CAMPAIGN, DONE
+from .layout import CAMPAIGN, read_done
 from .layout import at as _at
 from .layout import inside as _inside
 from .spec import Campaign
@@ -275,7 +275,7 @@ def physics_to_force(directory: Path, doc: dict, force: bool) -> list[tuple[Path
 
 
 def finished(directory: Path, task: dict) -> bool:
-    return (directory / task["path"] / DONE).is_file()
+    return read_done(directory / task["path"]) is not None
 
 
 def state(directory: Path, task: dict) -> dict:
@@ -290,12 +290,10 @@ def state(directory: Path, task: dict) -> dict:
             "done": None}
     if not folder.is_dir():
         return info
-    if (folder / DONE).is_file():
+    record = read_done(folder)
+    if record is not None:
         info["state"] = "done"
-        try:
-            info["done"] = json.loads((folder / DONE).read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            pass
+        info["done"] = record
     elif _alive(folder / LOCK_NAME):
         info["state"] = "running"
     else:

@@ -8,7 +8,7 @@ one of the folder's own files. An error about ``campaign.json`` names its field 
 
 from __future__ import annotations
 
-from pathlib import PurePosixPath
+from pathlib import Path, PurePosixPath
 
 from ..errors import bad
 from ..experiments.lock import LOCK_NAME
@@ -17,6 +17,25 @@ CAMPAIGN = "campaign.json"
 DONE = "done.json"
 MAX_FOLDER_NAME = 255
 """Bytes of one folder name (most file systems' limit)."""
+
+
+def read_done(folder: Path) -> dict | None:
+    """The ``done.json`` record of the task in ``folder``; None when there is none
+    or it is not whole: not JSON (cut short by a kill or a full disk), not a JSON object (the
+    probe's ``[]``). Such a task is not finished: it runs again (every kind
+    resumes or redoes its work), and its record is written anew."""
+    from .._io import parse_json, read_text
+
+    path = folder / DONE
+    try:
+        if not path.is_file():
+            return None
+        data = parse_json(read_text(path, "done"), "done", str(path))
+    except (OSError, ValueError):  # SomiteError is a ValueError
+        return None
+    # Not compared with the task's id: a campaign's experiments may be renamed (their
+    # folders and ids with them) after their tasks finished.
+    return data if isinstance(data, dict) else None
 
 
 def at(where: str) -> str:

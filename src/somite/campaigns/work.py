@@ -20,7 +20,7 @@ from pathlib import Path
 from .._io import remove_temporary, write_atomic
 from .kinds import KINDS
 from .kinds.common import run_config
-from .layout import DONE
+from .layout import DONE, read_done
 
 __all__ = ["DONE", "run_config", "run_task"]
 
@@ -31,8 +31,9 @@ def run_task(directory: str, task: dict, threads: int = 1, *needed) -> dict:
     how Dask orders it after them, and is not used."""
     out = Path(directory) / task["path"]
     done = out / DONE
-    if done.is_file():
-        return json.loads(done.read_text(encoding="utf-8"))
+    record = read_done(out)
+    if record is not None:
+        return record
     # The campaign's lock keeps other campaigns out, and Dask runs a task once at a time: a
     # temporary file here is a killed attempt's, and would stay beside the redone outputs.
     remove_temporary(out)

@@ -23,8 +23,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import checks
 from ..brain.genome import Genome
-from ..errors import bad
+from ..errors import bad, bad_type
+from ..limits import MAX_BATCH, MAX_EVALUATIONS
 from ..sim.body import Body
 from ..sim.partition import Partition
 from .config import GAConfig
@@ -81,6 +83,26 @@ def statistics(population: Population, computed: np.ndarray) -> dict:
         "best_operator": population.origins[best],
         "nan_count": int(np.isnan(computed).sum()),
     }
+
+
+def checked_fitness(fitness, n: int) -> np.ndarray:
+    """``fitness`` of ``n`` genomes as a float64 array: real numbers (not strings, None,
+    booleans or complex numbers), each finite or NaN. NaN is a failed episode (the worst, and
+    ``null`` in a checkpoint); an infinity is no velocity a task measures (its episodes stop
+    at the first non-finite state), would win every tournament and has no JSON spelling."""
+    listed = checks.items("fitness", fitness, MAX_BATCH)
+    if len(listed) != n:
+        raise bad("fitness", f"{len(listed)} values", f"expected one per genome ({n})")
+    for i, value in enumerate(listed):
+        if not checks.is_real(value):
+            raise bad_type(f"fitness[{i}]", value, "a real number (v_x in m/s), or NaN")
+        try:
+            infinite = math.isinf(value)
+        except OverflowError:  # an integer past float's range
+            infinite = True
+        if infinite:
+            raise bad(f"fitness[{i}]", value, "must be finite (NaN for a failed episode)")
+    return np.array([float(v) for v in listed], dtype=np.float64)
 
 
 @dataclass
@@ -144,11 +166,11 @@ class GraphEA:
         if population is not None:
             options["population"] = population
         self.config = GAConfig.from_options({**base, **options})
-        if start is not None and start.body != body:
+        if start is not None and checks.instance("start", start, Genome,
+                                                 "a somite Genome").body != body:
             raise bad("shape", start.body.shape.grid_string(),
                       f"the start genome's body differs from the EA's {body.shape.grid_string()}")
-        if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
-            raise bad("seed", seed, "must be an integer >= 0")
+        seed = checks.integer("seed", seed, 0, checks.SEED_END - 1)
         self.body = body
         self.start = start
         # A caller that parsed the configuration already (a run's RunSetup) hands its partition
@@ -193,6 +215,7 @@ class GraphEA:
         asked = self._asked
         if asked is None:
             raise bad("tell", "genomes", "nothing asked: call ask() first")
+        genomes = checks.items("genomes", genomes, MAX_BATCH)
         if len(genomes) != len(asked.genomes):
             raise bad("tell", f"{len(genomes)} genomes",
                       f"the last ask() returned {len(asked.genomes)}")
@@ -202,9 +225,11 @@ class GraphEA:
             if told is not own and told != own:
                 raise bad("tell", f"genomes[{i}]",
                           "not the genome the last ask() returned at that position")
-        fitness = np.asarray(fitness, dtype=np.float64)
-        if fitness.shape != (len(genomes),):
-            raise bad("fitness", fitness.shape, f"expected shape ({len(genomes)},)")
+        fitness = checked_fitness(fitness, len(genomes))
+        if non_finite is not None:
+            # Each genome's episodes: at most the most terrains of an evaluation.
+            non_finite = checks.integer("non_finite", non_finite, 0,
+                                        len(genomes) * MAX_EVALUATIONS)
         self._asked = None
         if self.population is None:
             self.population = Population(list(asked.genomes), fitness, list(asked.origins))

@@ -177,6 +177,11 @@ def load_toml(path: str | Path) -> dict:
     for key in data:
         if key not in known:
             raise bad("config." + key, data[key], "unknown option")
+    if "start" in data:
+        # Recorded by a re-optimisation in its config.json, never read as an instruction:
+        # a run given it would claim a start it never had.
+        raise bad("config.start", data["start"], "a run's start genome is not an option: "
+                  "re-optimise it with `somite reoptimize GENOME`")
     return data
 
 

@@ -42,6 +42,7 @@ from pathlib import Path
 from .._io import (
     CHECK_PREFIX,
     TEMPORARY,
+    check_output_file,
     check_output_folder,
     discard,
     make_folder,
@@ -276,6 +277,19 @@ class RunDirectory:
         write_atomic(self.file("log.csv"), ",".join(LOG_COLUMNS) + "\n")
         write_atomic(self.file("bests.jsonl"), "")
 
+    def check_resumable(self) -> None:
+        """Refuse, before anything is written, a run whose files a resume could not rewrite
+        (read-only, immutable) or whose manifest is not somite's: the refusal used to come at
+        the first checkpoint, after config.json was rewritten and log.csv appended to."""
+        manifest = self.file(MANIFEST)
+        if manifest.exists() and self._read_manifest() is None:
+            raise bad("resume", str(manifest), "not a somite run manifest (another format or "
+                      "damaged); nothing was changed")
+        for name in (*RUN_FILES, MANIFEST):
+            if self.file(name).exists():
+                check_output_file(self.file(name), "resume")
+        check_output_folder(self.path, "resume")
+
     def write_config(self, config: RunConfig) -> None:
         write_atomic(self.file("config.json"), json.dumps(config.to_dict(), indent=2) + "\n")
 
@@ -383,6 +397,7 @@ def open_run(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool
     the checkpoint); ``run_dir`` must be locked."""
     restart = False
     if resume:
+        run_dir.check_resumable()
         run_dir.remove_temporary()
         if not run_dir.file("checkpoint.json").exists():
             # Killed before its first checkpoint (during generation 0): as every draw comes
@@ -402,6 +417,9 @@ def open_run(config: RunConfig, run_dir: RunDirectory, resume: bool, force: bool
                       f"the checkpoint is at generation {ea.generation} already")
         forced = check_resume(run_dir.path, force_physics, ea.generation)
     else:
+        if start is None and config.start:
+            raise bad("start", config.start, "names a start genome, but none was given: "
+                      "pass it (evolve(..., start=genome)) or use `somite reoptimize`")
         body = config.body() if start is None else start.body
         if body.shape != config.body().shape:
             raise bad("shape", config.shape,

@@ -35,9 +35,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .._io import read_json, write_atomic
-from ..brain.genome import Edge, Genome, Node
+from ..brain.genome import EDGE_KEYS, NODE_KEYS, Edge, Genome, Node
 from ..errors import SomiteError, bad
-from ..formats import MODULE
+from ..formats import MODULE, known_keys
 from ..limits import MAX_SHAPE_SIDE
 from ..sim.body import SENSOR_KINDS, Body, Shape, component, is_connected
 from .graft import Graft, graft
@@ -157,6 +157,12 @@ def module_to_dict(module: Module, provenance: Provenance) -> dict:
 def module_from_dict(data, name: str, path: str | None = None) -> LibraryModule:
     """Read the JSON form of a module file; one-line errors for anything malformed."""
     MODULE.check(data)
+    known_keys(data, ("format", "version", "label", "voxels", "nodes", "edges", "provenance"),
+               "")
+    for key, allowed in (("voxels", ("x", "y", "sensors")), ("nodes", NODE_KEYS),
+                         ("edges", EDGE_KEYS)):
+        for i, item in enumerate(data.get(key) if isinstance(data.get(key), list) else []):
+            known_keys(item, allowed, f"{key}[{i}]")
     try:
         voxels = [(item["x"], item["y"]) for item in _list(data, "voxels")]
         sensors = [_kinds(item["sensors"]) for item in data["voxels"]]

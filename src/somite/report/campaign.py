@@ -17,7 +17,7 @@ from ..campaigns import figures as figure_table
 from ..campaigns.builtin import DECLARED_FIGURES
 from ..campaigns.directory import read
 from ..campaigns.kinds import KINDS
-from ..campaigns.layout import DONE
+from ..campaigns.layout import read_done
 from ..errors import bad
 
 
@@ -138,7 +138,7 @@ def _task(root: Path, item) -> Task:
         raise bad("campaign.tasks.options", options, "expected an object")
     folder = root / relative
     return Task(item["id"], item["experiment"], item["kind"], folder, tuple(needs), options,
-                (folder / DONE).is_file())
+                read_done(folder) is not None)
 
 
 def task_row(task: Task, done: bool) -> dict:

@@ -183,7 +183,19 @@ def _alive(pid: int) -> bool:
         return False
     except OSError:  # another user's process
         return True
-    return True
+    return not _zombie(pid)
+
+
+def _zombie(pid: int) -> bool:
+    """Whether ``pid`` has ended but not yet been reaped by its parent (a report killed a
+    moment ago, whose parent has not waited for it): it writes nothing any more. Linux's
+    /proc says so; elsewhere, False."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    # "pid (name) S ...": the state follows the name's closing parenthesis.
+    return stat[stat.rfind(")") + 2:][:1] in ("Z", "X")
 
 
 __all__ = ["ENTRIES", "staged_report"]

@@ -14,7 +14,9 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import cached_property
 
-from ..errors import bad
+from .. import checks
+from ..errors import bad, bad_type
+from ..formats import known_keys
 from ..limits import MAX_SHAPE_SIDE
 
 SENSOR_KINDS = ("area", "touch", "velocity", "lidar")
@@ -216,13 +218,26 @@ class Body:
         """
         if isinstance(shape, str):
             shape = Shape.parse(shape)
+        checks.instance("shape", shape, Shape, "a shape name (worm, biped, WxH, rows of 1/0) "
+                        "or a somite Shape")
         if sensors is None:
             sensors = "paper"
         if isinstance(sensors, str):
             if sensors not in SENSOR_PRESETS:
                 raise bad("sensors", sensors, f"unknown preset; use one of {list(SENSOR_PRESETS)}")
             return cls(shape, SENSOR_PRESETS[sensors](shape))
-        per_voxel = {tuple(k): tuple(v) for k, v in sensors.items()}
+        checks.instance("sensors", sensors, dict, "a preset name or a dict from (x, y) to "
+                        "sensor kinds")
+        per_voxel = {}
+        for cell, kinds in sensors.items():
+            if (not isinstance(cell, tuple) or len(cell) != 2
+                    or not all(checks.is_integer(c) for c in cell)):
+                raise bad_type("sensors", cell, "a voxel (x, y) of two integers as a key")
+            if isinstance(kinds, str) or not isinstance(kinds, (list, tuple)):
+                raise bad_type(f"sensors[{cell}]", kinds, "a list of sensor kinds")
+            if not all(isinstance(k, str) for k in kinds):
+                raise bad_type(f"sensors[{cell}]", kinds, "a list of sensor kinds (strings)")
+            per_voxel[(int(cell[0]), int(cell[1]))] = tuple(kinds)
         for cell in per_voxel:
             shape.index(*cell)
         ordered = tuple(
@@ -267,6 +282,7 @@ class Body:
         sensor). A voxel's kinds keep the file's order, which fixes what its slots mean."""
         if not isinstance(data, dict) or "shape" not in data:
             raise bad("body", data, "expected an object with 'shape' and 'sensors'")
+        known_keys(data, ("shape", "sensors"), "body")
         if not isinstance(data["shape"], str):
             raise bad("body.shape", data["shape"],
                       "expected a string: biped, worm, WxH or rows of 1/0")
@@ -290,6 +306,7 @@ def _sensor_cell(item, i: int, shape: Shape, filled: set) -> tuple[int, int]:
     """The voxel (x, y) of ``body.sensors[i]``: integers (not bool, float, string) in ``shape``."""
     if not isinstance(item, dict) or not {"x", "y", "kinds"} <= item.keys():
         raise bad(f"body.sensors[{i}]", item, "expected {x, y, kinds}")
+    known_keys(item, ("x", "y", "kinds"), f"body.sensors[{i}]")
     for axis in ("x", "y"):
         value = item[axis]
         if type(value) is not int:

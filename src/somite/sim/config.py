@@ -13,8 +13,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .. import checks
 from ..errors import bad
-from ..limits import MAX_DURATION, at_most
+from ..limits import MAX_DURATION
 
 CONTROL_HZ = 60.0
 VOXEL_SIDE = 3.0
@@ -32,6 +33,70 @@ ACTIVATIONS = ("tanh", "sigmoid")
 FRAMES = ("world", "voxel")
 NOISE_STREAMS = ("independent", "java-random-0")
 VOXEL_ANGLES = ("vector-mean", "angle-mean")
+
+
+MAX_WINDOW = int(MAX_DURATION * CONTROL_HZ)
+"""Control steps of a moving-average window: no longer than the longest episode."""
+
+
+class Bound(NamedTuple):
+    """A numeric setting's type and range: an integer, or a real number (finite), in
+    [low, high] (``above``: in (low, high])."""
+
+    integer: bool
+    low: float
+    high: float
+    above: bool = False
+    below_low: str = ""
+    """The reason a value below ``low`` is refused, when it says more than the number."""
+
+    def check(self, field: str, value):
+        if self.integer:
+            return checks.integer(field, value, int(self.low), int(self.high))
+        number = checks.real(field, value, None, self.high)
+        if self.below_low and number < self.low:
+            raise bad(field, value, self.below_low)
+        return checks.real(field, number, self.low, None, above=self.above)
+
+
+BOUNDS: dict[str, Bound] = {
+    # At least one control step; the longest episode of somite.limits.
+    "duration": Bound(False, 1 / CONTROL_HZ, MAX_DURATION, below_low=(
+        f"must be at least one control step ({1 / CONTROL_HZ:g} s)")),
+    "transient": Bound(False, 0.0, MAX_DURATION),
+    # [m] above the ground at the start (tests drop robots from ~2 km).
+    "start_gap": Bound(False, 0.0, 1e4),
+    # Each count multiplies the work of a step: the bounds keep one step under a second.
+    "substeps": Bound(True, 1, 100),
+    "velocity_iterations": Bound(True, 1, 1000),
+    "position_iterations": Bound(True, 1, 1000),
+    "spring_hz": Bound(False, 0.0, 1e3, above=True),
+    "damping_ratio": Bound(False, 0.0, 1e3),
+    "area_delta": Bound(False, 0.0, 0.99),  # 1 would shrink a voxel to nothing
+    "gravity": Bound(False, 0.0, 1e3, above=True),
+    "drag": Bound(False, 0.0, 1e3),
+    "friction": Bound(False, 0.0, 1e3),
+    "block_friction": Bound(False, 0.0, 1e3),
+    "restitution": Bound(False, 0.0, 1.0),
+    "noise_sigma": Bound(False, 0.0, 1e3),
+    "lidar_range": Bound(False, 0.0, 1e4, above=True),
+    "touch_window": Bound(True, 1, MAX_WINDOW),
+    "velocity_window": Bound(True, 1, MAX_WINDOW),
+    "velocity_max": Bound(False, 0.0, 1e3, above=True),
+}
+"""Every numeric field of :class:`SimConfig` (but ``lidar_angles``: 5 angles in [-pi, pi]),
+with its type and range: a value outside is a one-line error naming the field, so no count
+can make a step run for hours and no length can overflow. Far beyond the paper's and the
+original code's values (the defaults below) and any calibration's."""
+
+CHOICES: dict[str, tuple[str, ...]] = {
+    "lidar_frame": FRAMES,
+    "velocity_frame": FRAMES,
+    "hidden_activation": ACTIVATIONS,
+    "noise_stream": NOISE_STREAMS,
+    "voxel_angle": VOXEL_ANGLES,
+}
+"""Every text field of :class:`SimConfig` and the values it takes."""
 
 
 @dataclass(frozen=True)
@@ -88,42 +153,16 @@ class SimConfig:
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            if isinstance(value, float) and not math.isfinite(value):
-                raise bad(f.name, value, "must be a finite number")
-        if not self.duration * CONTROL_HZ >= 1:
-            raise bad("duration", self.duration,
-                      f"must be at least one control step ({1 / CONTROL_HZ:g} s)")
-        at_most("duration", self.duration, MAX_DURATION)
-        if self.transient < 0:
-            raise bad("transient", self.transient, "must be zero or positive")
-        at_most("transient", self.transient, MAX_DURATION)
-        _positive_int(self, "substeps", "velocity_iterations", "position_iterations",
-                      "touch_window", "velocity_window")
-        for name in ("spring_hz", "lidar_range", "velocity_max", "gravity"):
-            if not getattr(self, name) > 0:
-                raise bad(name, getattr(self, name), "must be positive")
-        non_negative = (
-            "start_gap", "damping_ratio", "drag", "friction", "block_friction", "noise_sigma",
-            "restitution",
-        )
-        for name in non_negative:
-            if getattr(self, name) < 0:
-                raise bad(name, getattr(self, name), "must be zero or positive")
-        if not 0 <= self.area_delta < 1:
-            raise bad("area_delta", self.area_delta, "must be in [0, 1)")
-        if self.restitution > 1:
-            raise bad("restitution", self.restitution, "must be at most 1")
-        if len(self.lidar_angles) != 5:
+            if f.name in BOUNDS:
+                object.__setattr__(self, f.name, BOUNDS[f.name].check(f.name, value))
+            elif f.name in CHOICES:
+                checks.text(f.name, value, CHOICES[f.name])
+        angles = checks.items("lidar_angles", self.lidar_angles, 100)
+        if len(angles) != 5:
             raise bad("lidar_angles", self.lidar_angles, "a lidar has exactly 5 rays")
-        for name, allowed in (
-            ("lidar_frame", FRAMES),
-            ("velocity_frame", FRAMES),
-            ("hidden_activation", ACTIVATIONS),
-            ("noise_stream", NOISE_STREAMS),
-            ("voxel_angle", VOXEL_ANGLES),
-        ):
-            if getattr(self, name) not in allowed:
-                raise bad(name, getattr(self, name), f"use one of {allowed}")
+        object.__setattr__(self, "lidar_angles", tuple(
+            checks.real(f"lidar_angles[{i}]", a, -math.pi, math.pi)
+            for i, a in enumerate(angles)))
 
     @property
     def n_steps(self) -> int:
@@ -153,7 +192,7 @@ class SimConfig:
     def with_options(self, **options) -> SimConfig:
         known = {f.name for f in fields(self)}
         for name in options:
-            if name not in known:
+            if name not in known:  # a keyword is always a string
                 raise bad("option", name, "not a simulation option")
         return replace(self, **options)
 
@@ -171,13 +210,6 @@ def whole_episode_warning(config: SimConfig) -> str | None:
     return (f"duration={config.duration:g} s is not longer than transient="
             f"{config.transient:g} s: v_x is measured over the whole episode "
             f"[0 s, {config.duration:g} s], start-up included, not over [transient, duration]")
-
-
-def _positive_int(config: SimConfig, *names: str) -> None:
-    for name in names:
-        value = getattr(config, name)
-        if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-            raise bad(name, value, "must be a positive integer")
 
 
 PRESETS: dict[str, dict] = {
@@ -198,8 +230,7 @@ PRESETS: dict[str, dict] = {
 
 def preset(name: str, **options) -> SimConfig:
     """The :class:`SimConfig` of preset ``name``, with ``options`` on top."""
-    if name not in PRESETS:
-        raise bad("preset", name, f"use one of {list(PRESETS)}")
+    checks.text("preset", name, list(PRESETS))
     return SimConfig().with_options(**{**PRESETS[name], **options})
 
 

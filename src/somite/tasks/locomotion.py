@@ -12,13 +12,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import checks
 from ..brain.controllers import GraphArrays, Sine, Table, Zero
-from ..errors import bad
+from ..brain.kinds import ACTUATOR, HIDDEN, SENSOR
+from ..budget import check_batch
+from ..errors import bad, bad_type
+from ..limits import MAX_BATCH
 from ..sim.body import Body
 from ..sim.config import CONTROL_HZ, SimConfig, pack_params
 from ..sim.sensors import noise_table
 from ..sim.system import System, compile_system, pad
 from ..sim.terrain import Terrain
+from . import arguments
 from .backends import BACKENDS, get_backend
 from .episode import (
     D_FLIPPED,
@@ -127,13 +132,15 @@ def compile_controllers(controllers: Sequence[Controller], n_voxels: Sequence[in
         elif isinstance(ctrl, Table):
             kind[b] = TABLE
             if ctrl.rows.shape[1] != voxels:
-                raise ValueError(f"table has {ctrl.rows.shape[1]} columns, body {voxels} voxels")
+                raise bad(f"controllers[{b}]", f"a table of {ctrl.rows.shape[1]} columns",
+                          f"its body has {voxels} voxels")
             table = ctrl.rows
         elif isinstance(ctrl, GraphArrays):
             kind[b] = GRAPH
             graph = ctrl
         else:
-            raise TypeError(f"not a controller: {ctrl!r}")
+            raise bad_type(f"controllers[{b}]", ctrl, "a controller (Zero(), Sine(...), "
+                           "Table(...), a compiled Genome) or a Genome")
         tables.append(table)
         graphs.append(graph)
     longest = max(1, max(t.shape[0] for t in tables))
@@ -229,9 +236,19 @@ def simulate_batch(
     ``noise_stream = "java-random-0"``). With ``record`` the trace also holds every step's
     corner positions, actuation, readings and contacts (``cpu`` backend only).
     """
-    config = config or SimConfig()
-    if not (len(terrains) == len(controllers) == len(bodies)):
-        raise ValueError("bodies, terrains and controllers must have the same length")
+    config = arguments.sim_config("config", config)
+    bodies = checks.items("bodies", bodies, MAX_BATCH, least=1)
+    n = len(bodies)
+    for name, listed in (("terrains", terrains), ("controllers", controllers)):
+        if len(checks.items(name, listed, MAX_BATCH)) != n:
+            raise bad(name, f"{len(listed)} {name}", f"need one per body ({n})")
+    terrains = [checks.instance(f"terrains[{i}]", t, Terrain, "a somite Terrain "
+                                "(somite.parse_terrain(name))") for i, t in enumerate(terrains)]
+    record = checks.flag("record", record)
+    backend = arguments.backend("backend", backend)
+    for i, body in enumerate(bodies):
+        arguments.body(f"bodies[{i}]", body)
+    check_batch(n, max(b.shape.n_voxels for b in bodies))
     system, ctrl, seeds = compile_batch(bodies, terrains, controllers, config, seeds)
     trace = run(system, ctrl, config, seeds, record, backend)
     return outcomes(trace, config), trace
@@ -247,13 +264,37 @@ def compile_batch(
     """A batch of robot b = (bodies[b], terrains[b], controllers[b]) compiled for the kernel,
     and its noise seeds, one per robot (one int: the same for all), checked."""
     n = len(bodies)
-    if isinstance(seeds, (int, np.integer)):
-        seeds = [int(seeds)] * n
-    if len(seeds) != n:
-        raise bad("seeds", f"{len(seeds)} seeds", f"need one, or one per robot ({n})")
-    for seed in seeds:
-        if not 0 <= int(seed) < 2**64:
-            raise bad("seed", seed, "must be in [0, 2**64)")
+    seeds = checks.seeds("seeds", seeds, n)
+    for b, (body, controller) in enumerate(zip(bodies, controllers)):
+        arguments.body(f"bodies[{b}]", body)
+        check_fits(f"controllers[{b}]", controller, body)
     system = compile_system(bodies, terrains, config.start_gap)
     ctrl = compile_controllers(controllers, [b.shape.n_voxels for b in bodies])
-    return system, ctrl, [int(s) for s in seeds]
+    return system, ctrl, seeds
+
+
+def check_fits(field: str, controller, body: Body) -> None:
+    """Refuse a graph controller that is not ``body``'s: compiled for another body, or whose
+    nodes refer to readings or voxels that ``body`` lacks (the kernel would read past them).
+    Any other controller fits any body (a table is checked for its width when padded)."""
+    if not isinstance(controller, GraphArrays):
+        return
+    if controller.body is not None and controller.body is not body and controller.body != body:
+        raise bad(field, f"a controller of body {controller.body.shape.grid_string()}",
+                  f"its robot's body is {body.shape.grid_string()}")
+    kind, ref = np.asarray(controller.node_kind), np.asarray(controller.node_ref)
+    n_nodes = len(kind)
+    counts = {SENSOR: body.n_readings, ACTUATOR: body.shape.n_voxels}
+    if len(ref) != n_nodes or not np.isin(kind, (SENSOR, HIDDEN, ACTUATOR)).all():
+        raise bad(field, "a graph controller", "node kinds and references differ in length "
+                  "or hold an unknown kind")
+    for code, count in counts.items():
+        refs = ref[kind == code]
+        if refs.size and not ((refs >= 0) & (refs < count)).all():
+            what = "readings" if code == SENSOR else "voxels"
+            raise bad(field, f"a graph controller referring to {what} up to {int(refs.max())}",
+                      f"its robot's body has {count} {what}")
+    edges = [np.asarray(getattr(controller, name)) for name in ("src", "dst", "weight", "bias")]
+    if len({len(e) for e in edges}) != 1 or any(
+            e.size and not ((e >= 0) & (e < n_nodes)).all() for e in edges[:2]):
+        raise bad(field, "a graph controller", f"its edges must join its {n_nodes} nodes")

@@ -15,15 +15,19 @@ from concurrent.futures import Executor, ThreadPoolExecutor
 
 import numpy as np
 
+from .. import checks
 from .._jit import njit
-from .._threads import spread, threads_for
+from .._threads import THREAD_NAME, spread, threads_for
 from ..brain.compile import compile_genome
 from ..brain.genome import Genome
-from ..errors import bad
+from ..budget import check_batch
+from ..errors import bad, bad_type
+from ..limits import MAX_STEPPED
 from ..sim.body import Body
 from ..sim.config import SimConfig, pack_params
 from ..sim.sensors import lidar_rays, noise_table
-from ..sim.terrain import Terrain, parse_terrain
+from ..sim.terrain import Terrain
+from . import arguments
 from .episode import (
     STATUS_OK,
     Trace,
@@ -93,6 +97,20 @@ def step_batch(k, system, ctrl, params, noise, seeds, trace, work, rays, given,
                 system.n_points.shape[0], pool, threads)
 
 
+def _real_array(field: str, value) -> np.ndarray:
+    """``value`` as a float64 array, if it holds real numbers (not strings, not complex,
+    not objects, which NumPy would convert or refuse deep inside)."""
+    if isinstance(value, (str, bytes)):
+        raise bad_type(field, value, "an array of numbers")
+    try:
+        array = np.asarray(value)
+    except (ValueError, TypeError):  # a ragged list
+        raise bad_type(field, value, "an array of numbers") from None
+    if array.dtype.kind not in "iuf":
+        raise bad_type(field, f"an array of dtype {array.dtype}", "an array of real numbers")
+    return array.astype(np.float64, copy=False)
+
+
 def _read_only(a: np.ndarray) -> np.ndarray:
     view = a.view()
     view.flags.writeable = False
@@ -126,23 +144,33 @@ class Episode:
         record: bool = False,
         bodies: Sequence[Body] | None = None,
     ):
-        config = config or SimConfig()
+        config = arguments.sim_config("config", config)
+        robots = checks.items("robots", robots, MAX_STEPPED)
         n = len(robots)
         if n == 0:
             raise bad("robots", [], "an episode needs one robot at least")
+        record = checks.flag("record", record)
+        for i, robot in enumerate(robots):
+            arguments.robot(f"robots[{i}]", robot)
         if bodies is None:
-            for robot in robots:
+            for i, robot in enumerate(robots):
                 if not isinstance(robot, Genome):
-                    raise bad("bodies", None, "controllers need bodies=; a Genome carries its own")
+                    raise bad("bodies", None, f"robots[{i}] is a controller: controllers "
+                              "need bodies=; a Genome carries its own")
             bodies = [robot.body for robot in robots]
-        elif len(bodies) != n:
-            raise bad("bodies", f"{len(bodies)} bodies", f"need one per robot ({n})")
+        else:
+            bodies = checks.items("bodies", bodies, MAX_STEPPED)
+            if len(bodies) != n:
+                raise bad("bodies", f"{len(bodies)} bodies", f"need one per robot ({n})")
+            for i, (robot, body) in enumerate(zip(robots, bodies)):
+                arguments.body(f"bodies[{i}]", body)
+                if isinstance(robot, Genome) and robot.body != body:
+                    raise bad(f"bodies[{i}]", body.shape.grid_string(),
+                              f"robots[{i}] is a genome of body {robot.body.shape.grid_string()}")
+        seeds = checks.seeds("seeds", seeds, n)
+        worlds = arguments.terrains("terrains", terrains, n, MAX_STEPPED)
+        check_batch(n, max(b.shape.n_voxels for b in bodies))
         controllers = [compile_genome(r) if isinstance(r, Genome) else r for r in robots]
-        if isinstance(terrains, (str, Terrain)):
-            terrains = [terrains] * n
-        if len(terrains) != n:
-            raise bad("terrains", f"{len(terrains)} terrains", f"need one, or one per robot ({n})")
-        worlds = [t if isinstance(t, Terrain) else parse_terrain(t) for t in terrains]
         self.config = config
         self.system, self.controllers, seeds = compile_batch(bodies, worlds, controllers,
                                                              config, seeds)
@@ -158,7 +186,8 @@ class Episode:
         # One pool for the episode's life (starting threads at every step would cost more
         # than a small batch's step); the calling thread is the last of the threads.
         self._threads = threads_for(n)
-        self._pool = ThreadPoolExecutor(self._threads - 1) if self._threads > 1 else None
+        self._pool = (ThreadPoolExecutor(self._threads - 1, thread_name_prefix=THREAD_NAME)
+                      if self._threads > 1 else None)
         start_batch(self.system, self.controllers, self._params, self._trace, self._work,
                     self._rays, self._pool, self._threads)
 
@@ -191,7 +220,7 @@ class Episode:
             raise bad("step", self._k + 1, f"the episode has {self.n_steps} control steps")
         given = self._no_actuation
         if actuation is not None:
-            given = np.asarray(actuation, dtype=np.float64)
+            given = _real_array("actuation", actuation)
             expected = (self.n_robots, self.n_voxels)
             if given.shape != expected:
                 raise bad("actuation", f"shape {given.shape}", f"must have shape {expected}")

@@ -14,14 +14,17 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .. import checks
 from ..brain.compile import compile_genome
 from ..brain.genome import Genome
 from ..errors import bad
+from ..limits import MAX_BATCH, MAX_DURATION, MAX_EVALUATIONS, MAX_VALIDATION
 from ..sim.body import Body
-from ..sim.config import SimConfig
+from ..sim.config import CONTROL_HZ, SimConfig
+from ..sim.config import PRESETS as SIM_PRESETS
 from ..sim.config import preset as sim_preset
-from ..sim.terrain import Terrain, parse_terrain
-from .backends import check_backend
+from ..sim.terrain import Terrain
+from . import arguments
 from .distributions import TerrainDistribution, parse_distribution
 from .locomotion import Controller, Outcome, simulate_batch
 from .validation import VALIDATION_COUNT, ValidationSet
@@ -83,21 +86,23 @@ class Locomotion:
         sim: SimConfig | None = None,
         backend: str = "cpu",
     ) -> None:
-        self.backend = check_backend(backend)
+        self.backend = arguments.backend("backend", backend)
         self.terrains = (terrain if isinstance(terrain, TerrainDistribution)
-                         else parse_distribution(terrain))
-        self.sim = sim or sim_preset(preset, duration=float(duration), transient=float(transient))
-        counts = (("evaluations", evaluations),) + (
-            () if isinstance(validation, ValidationSet) else (("validation", validation),))
-        for name, value in counts:
-            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-                raise bad(name, value, "must be an integer >= 1")
-        self.evaluations = evaluations
+                         else parse_distribution(checks.text("terrain", terrain)))
+        # Checked even when ``sim`` replaces them: a bad value is never passed over in silence.
+        duration = checks.real("duration", duration, 1 / CONTROL_HZ, MAX_DURATION)
+        transient = checks.real("transient", transient, 0.0, MAX_DURATION)
+        checks.text("preset", preset, list(SIM_PRESETS))
+        self.sim = (arguments.sim_config("sim", sim) if sim is not None
+                    else sim_preset(preset, duration=duration, transient=transient))
+        self.evaluations = checks.integer("evaluations", evaluations, 1, MAX_EVALUATIONS)
+        if not isinstance(validation, ValidationSet):
+            checks.integer("validation", validation, 1, MAX_VALIDATION)
         self.validation = ValidationSet.of(validation)
         if not self.terrains.is_random and self.terrains.name in self.validation.names:
             raise bad("terrain", terrain if isinstance(terrain, str) else self.terrains.name,
                       "a validation terrain cannot be a training terrain")
-        self.body = body
+        self.body = None if body is None else arguments.body("body", body)
 
     @property
     def validation_terrains(self) -> list[Terrain]:
@@ -109,10 +114,8 @@ class Locomotion:
                 f"evaluations={self.evaluations})")
 
     def _check(self, genomes: Sequence[Genome]) -> list[Genome]:
-        genomes = list(genomes)
+        genomes = arguments.genomes("genomes", genomes, MAX_BATCH)
         for genome in genomes:
-            if not isinstance(genome, Genome):
-                raise bad("genome", type(genome).__name__, "expected a somite Genome")
             if self.body is not None and genome.body != self.body:
                 raise bad("shape", genome.body.shape.grid_string(),
                           f"the task's body is {self.body.shape.grid_string()}")
@@ -142,6 +145,8 @@ class Locomotion:
         """The episodes :meth:`evaluate` runs for ``genomes``, drawn from ``rng`` as it draws
         them; several tasks' episodes of the same ``sim`` can run in one batch."""
         genomes = self._check(genomes)
+        checks.instance("rng", rng, np.random.Generator, "a numpy Generator "
+                        "(ea.rng_evaluation, numpy.random.default_rng(seed))")
         n = len(genomes) * self.evaluations
         if n == 0:
             return Episodes([], [], [], np.zeros(0, dtype=np.int64))
@@ -197,6 +202,9 @@ def simulate(
     the sensor noise; ``backend`` is ``cpu`` or ``cuda``. For batches, see
     :func:`somite.tasks.locomotion.simulate_batch`.
     """
+    arguments.robot("robot", robot)
+    if body is not None:
+        arguments.body("body", body)
     if isinstance(robot, Genome):
         if body is not None and body != robot.body:
             raise bad("body", body.shape.grid_string(), "differs from the genome's own body")
@@ -205,10 +213,15 @@ def simulate(
         raise bad("body", None, "a controller needs body=; a Genome carries its own")
     else:
         controller = robot
-    world = terrain if isinstance(terrain, Terrain) else parse_terrain(terrain)
-    config = sim or sim_preset(preset, duration=float(duration))
+    world = arguments.terrain("terrain", terrain)
+    # Checked even when ``sim`` replaces them: a bad value is never passed over in silence.
+    duration = checks.real("duration", duration, 1 / CONTROL_HZ, MAX_DURATION)
+    checks.text("preset", preset, list(SIM_PRESETS))
+    config = (arguments.sim_config("sim", sim) if sim is not None
+              else sim_preset(preset, duration=duration))
+    seed = checks.integer("seed", seed, 0, checks.SEED_END - 1)
     [outcome], _ = simulate_batch([body], [world], [controller], config, seeds=seed,
-                                  backend=check_backend(backend))
+                                  backend=arguments.backend("backend", backend))
     return outcome
 
 

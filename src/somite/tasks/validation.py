@@ -13,12 +13,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import checks
 from ..brain.compile import compile_genome
 from ..brain.genome import Genome
 from ..errors import bad
-from ..limits import MAX_VALIDATION, at_most
+from ..limits import MAX_BATCH, MAX_VALIDATION, at_most
 from ..sim.config import SimConfig
 from ..sim.terrain import N_TRAINING_SEEDS, Terrain, hilly, hilly_name
+from . import arguments
 from .locomotion import Outcome, simulate_batch
 
 VALIDATION_COUNT = 10
@@ -96,7 +98,16 @@ def evaluate_outcomes(
     backend: str = "cpu",
 ) -> list[list[Outcome]]:
     """The :class:`Outcome` of every genome (rows) on every terrain (columns), in one batch."""
-    config = config or SimConfig()
+    config = arguments.sim_config("config", config)
+    genomes = arguments.genomes("genomes", genomes, MAX_BATCH)
+    terrains = checks.items("terrains", terrains, MAX_VALIDATION)
+    terrains = [arguments.terrain(f"terrains[{i}]", t) for i, t in enumerate(terrains)]
+    if len(genomes) * len(terrains) > MAX_BATCH:
+        raise bad("genomes", f"{len(genomes)} genomes on {len(terrains)} terrains",
+                  f"a batch has at most {MAX_BATCH:,} robots (somite.limits)")
+    seed = checks.integer("seed", seed, 0, checks.SEED_END - 1)
+    if not genomes or not terrains:
+        return [[] for _ in genomes]
     bodies, worlds, controllers = [], [], []
     for genome in genomes:
         arrays = compile_genome(genome)
@@ -117,6 +128,10 @@ def fresh_noise(genome: Genome, terrain: Terrain, config: SimConfig | None = Non
     whose draw flattered it most. These draws come from ``SeedSequence(seed)``, not from a
     run's evaluation stream (whose seeds are uniform in [0, 2**32) as well: a coincidence is a
     one-in-a-billion event), so they say what the genome does, not what it drew."""
+    arguments.genome("genome", genome)
+    terrain = arguments.terrain("terrain", terrain)
+    n = checks.integer("n", n, 1, MAX_VALIDATION)
+    seed = checks.integer("seed", seed, 0, checks.SEED_END - 1)
     seeds = np.random.SeedSequence(seed).generate_state(n, dtype=np.uint32)
     arrays = compile_genome(genome)
     outcomes, _ = simulate_batch([genome.body] * n, [terrain] * n, [arrays] * n, config,

@@ -8,6 +8,7 @@ from pathlib import Path
 from ...analysis.stats import load_run
 from ...brain.genome import Genome
 from ...errors import SomiteError, bad
+from ...experiments.history import read_history
 from ...sim.body import Shape
 from ...sim.config import CONTROL_HZ
 from ...tasks.validation import VALIDATION_COUNT
@@ -116,6 +117,9 @@ def read(folder: Path, options: dict) -> dict:
     """What the report reads of a finished run: its log and config, its best genome, and the
     episode settings it trained with (for the re-run on the validation terrains)."""
     found = load_run(folder)
+    # The log and the bests checked line by line, as a resume checks them: a finished run
+    # whose bests.jsonl was deleted or cut is named among the unreadable tasks.
+    read_history(folder)
     sim = run_config(found.config).setup.sim
     return {"runs": found, "bests": Genome.load(folder / "best.json"), "sims": sim}
 

@@ -5,6 +5,7 @@ table), never by an experiment of its own."""
 from __future__ import annotations
 
 import csv
+import math
 from pathlib import Path
 
 from ..._io import read_text
@@ -50,10 +51,24 @@ def read_transfer(folder: Path) -> list[dict]:
     reader = csv.DictReader(text.splitlines())
     if "rho" not in (reader.fieldnames or ()) or "generation" not in reader.fieldnames:
         raise bad("transfer", str(path), "lacks the columns generation and rho")
-    rows = [{k: number(v) for k, v in row.items()} for row in reader]
+    rows = []
+    for line, row in enumerate(reader, start=2):
+        if None in row or None in row.values():
+            raise bad("transfer", f"{path}, line {line}", "has another number of cells "
+                      "than the header")
+        rows.append({k: _cell(path, line, k, v) for k, v in row.items()})
     if not rows:
         raise bad("transfer", str(path), "has no rows")
     return rows
+
+
+def _cell(path: Path, line: int, column: str, text: str) -> float:
+    """A cell of ``transfer.csv``: a number, or empty (NaN: not measured); anything else is
+    a damaged file, not a NaN."""
+    value = number(text)
+    if text.strip() and math.isnan(value) and text.strip().lower() != "nan":
+        raise bad("transfer", f"{path}, line {line}", f"{column}={text[:40]!r} is not a number")
+    return value
 
 
 def estimate(options: dict) -> int:

@@ -14,6 +14,8 @@ Read statically from the source, so an import inside a function counts like one 
   ``cli`` on top;
 - plotting and imaging libraries only in ``viz``; the progress bar only in the command line.
 - ``report`` (a campaign's report) reads every part below the command line, which imports it.
+- ``envs`` (the Gymnasium environments) sits beside ``viz``, whose frames it renders; Gymnasium
+  only there.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ SOURCE = Path(__file__).resolve().parents[1] / "src" / "somite"
 FOUNDATION = {"errors", "limits", "budget", "_io", "_jit", "_threads", "_math", "types", "formats",
               "checks"}
 BELOW_TOP = {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis", "viz",
-             "bench", "campaigns"}
+             "bench", "campaigns", "envs"}
 ALLOWED = {
     "sim": set(),
     "brain": {"sim.body"},
@@ -40,6 +42,7 @@ ALLOWED = {
     "viz": {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis"},
     "report": BELOW_TOP | {"__init__"},
     "bench": {"sim", "brain", "tasks"},
+    "envs": {"sim", "brain", "tasks", "viz"},
     "campaigns": {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis"},
     "__init__": BELOW_TOP,
     "commands": BELOW_TOP | {"commands", "__init__", "report"},
@@ -57,6 +60,7 @@ EXTERNAL = {
     "rich": {"commands", "cli"},
     "distributed": {"campaigns"},
     "dask": {"campaigns"},
+    "gymnasium": {"envs"},
 }
 """Third-party package -> the parts of somite that may import it."""
 

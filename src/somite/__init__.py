@@ -16,11 +16,15 @@ The public API (see the README's "Python API")::
     somite.simulate(ea.best, terrain="flat")  # an Outcome
 
 Names are loaded on first use, so ``import somite`` (and the command line) stays quick.
+With Gymnasium installed (``pip install somite[gym]``), ``gymnasium.make("somite/Locomotion-v0")``
+works after ``import somite`` (see :mod:`somite.envs`).
 """
 
 from __future__ import annotations
 
+import sys
 from importlib import import_module
+from importlib.util import find_spec
 
 __version__ = "0.1.0"
 
@@ -59,6 +63,7 @@ _EXPORTS = {
     "evolve": "somite.experiments.runner",
     "evolve_lockstep": "somite.experiments.lockstep",
     "SomiteError": "somite.errors",
+    "policy": "somite.envs.policy",
 }
 
 __all__ = sorted(_EXPORTS)
@@ -76,3 +81,40 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted([*globals(), *_EXPORTS])
+
+
+class _RegisterWithGymnasium:
+    """An import hook that registers ``somite/Locomotion-v0`` as soon as Gymnasium is imported.
+
+    Registering imports Gymnasium (0.2-0.5 s), which ``import somite``, and so every command,
+    should not pay when no one uses it. The hook looks at nothing but the name of each module
+    imported until Gymnasium's, registers once Gymnasium's has run, and removes itself. When
+    Gymnasium was imported before somite, somite registers at once (below).
+    """
+
+    def find_spec(self, name, path=None, target=None):
+        if name != "gymnasium":
+            return None
+        sys.meta_path.remove(self)
+        spec = find_spec(name)
+        if spec is None or spec.loader is None or not hasattr(spec.loader, "exec_module"):
+            return spec
+        exec_module = spec.loader.exec_module
+
+        def exec_then_register(module):
+            exec_module(module)
+            try:
+                import_module("somite.envs").register()
+            except Exception as error:  # a Gymnasium somite cannot use must still import
+                import warnings
+
+                warnings.warn(f"somite/Locomotion-v0 is not registered: {error}", stacklevel=2)
+
+        spec.loader.exec_module = exec_then_register
+        return spec
+
+
+if "gymnasium" in sys.modules:
+    import_module("somite.envs").register()
+elif not any(isinstance(hook, _RegisterWithGymnasium) for hook in sys.meta_path):
+    sys.meta_path.insert(0, _RegisterWithGymnasium())

@@ -488,3 +488,24 @@ def test_a_killed_reports_staging_folder_goes_at_the_next_report(tmp_path):
     _remove_abandoned(tmp_path)  # killed, not yet reaped by its parent (this test)
     assert not staging.exists()
     child.wait()
+
+
+def test_a_file_size_limit_stops_a_run_in_one_line_and_it_resumes(tmp_path):
+    """Finding 9: under ``ulimit -f`` a run stops at the first write past the limit with one
+    line naming the file (Python ignores SIGXFSZ, so the write fails, it does not kill), and
+    what it left resumes to the end once the limit is gone."""
+    import resource
+
+    def limited():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (4000, 4000))
+
+    run = tmp_path / "run"
+    args = [sys.executable, "-m", "somite.cli", "evolve", "--shape", "worm", "--population", "4",
+            "--generations", "3", "--duration", "1", "--validate-every", "0", "--out", str(run)]
+    child = subprocess.run(args, preexec_fn=limited, capture_output=True, text=True, timeout=600)
+    assert child.returncode == 2, child.stderr
+    assert child.stderr.count("\n") == 1 and "(File too large)" in child.stderr, child.stderr
+    resumed = subprocess.run([*args[:3], "evolve", "--resume", "--out", str(run)],
+                             capture_output=True, text=True, timeout=600)
+    assert resumed.returncode == 0, resumed.stderr
+    assert json.loads((run / "checkpoint.json").read_text())["generation"] == 3

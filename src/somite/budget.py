@@ -6,7 +6,7 @@ years. Before a command simulates or draws, it estimates its work and memory:
 
 - **time**: robot-control-steps, weighted by body size (a step of a robot costs about in
   proportion to its voxels), at the throughput of BENCHMARKS.md's 2-core machine. More than
-  :data:`MAX_HOURS` there needs ``--yes``: the paper's own run (about 4 h) passes without.
+  :data:`MAX_HOURS` there needs ``--yes``: the paper's own run (about 3 h) passes without.
 - **memory**: a batch of robots (:data:`BYTES_PER_VOXEL` a voxel) and the frames of a GIF or a
   time-lapse strip, which are held whole; more than half of this machine's memory is refused,
   ``--yes`` or not, as it would end in a MemoryError or the machine swapping.
@@ -18,10 +18,11 @@ import os
 
 from .errors import bad
 
-STEPS_PER_CORE_SECOND = 35_000
+STEPS_PER_CORE_SECOND = 50_000
 """Robot-control-steps of the worm (12 voxels) one core simulates a second: BENCHMARKS.md's
-39,225 a second on 2 cores, times the 1.8x of issue 25's vector lanes (measured before and after
-on another machine), halved. Campaigns scale it by their cores."""
+108k-117k a second on 2 cores of an AMD EPYC (kernel round 2, 2026-12-04), halved and rounded
+down, as the project's other machines ran the same kernel up to 25% slower. Campaigns scale it
+by their cores."""
 REFERENCE_VOXELS = 12
 REFERENCE_CORES = 2
 MAX_HOURS = 12.0

@@ -25,7 +25,7 @@ BUDGETS: dict[str, dict] = {
               "reoptimize": 510, "validation": VALIDATION_COUNT},
     # 3 seeds (the fewest for which run i + run i+1 pairs differ from run i+1 + run i), a third
     # of the population, 1/20 of the generations; re-optimisation keeps the paper's 17% ratio.
-    # 5.3e8 robot-control-steps: about 3.5 h at the 2-core figure of BENCHMARKS.md (~40k/s).
+    # 5.3e8 robot-control-steps: about 1.5 h at the 2-core figure of BENCHMARKS.md (100k/s).
     "quick": {"seeds": 3, "defaults": {"generations": 150, "population": 32,
                                        "validate_every": 25},
               "reoptimize": 25, "validation": VALIDATION_COUNT},

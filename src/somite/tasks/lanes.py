@@ -59,6 +59,8 @@ PARTS = ("gravity, damping, contacts' set-up, into the lanes", "joints: set-up",
 (P_START, P_JOINTS_START, P_JOINTS, P_CONTACTS, P_MOVE, P_POSITIONS, P_FOUND, P_REST,
  P_SENSE) = range(len(PARTS))
 NOT_TIMED = np.zeros(0, dtype=np.uint64)
+"""``spent`` of a group run that is not being timed."""
+
 
 def _body_key(system, b: int) -> bytes:
     """What robots of one group must share: their joints and their blocks' masses."""

@@ -25,8 +25,8 @@ def cycles(typingctx):
 
 @njit(inline="always")
 def tick(spent, part, since, timed):
-    """With ``timed``: the cycles since ``since`` added to ``spent[part]``, and now; else 0
-    (a kernel not being timed reads no counter)."""
+    """With ``timed``: the cycles since ``since`` added to ``spent[part]``, and now; else
+    ``since`` unchanged (a kernel not being timed reads no counter)."""
     if not timed:
         return since
     now = cycles()

@@ -6,11 +6,10 @@ The physics turns every block once a step and again after every position-pass pu
 take. :func:`sincos` reduces the angle by multiples of pi/2 (Cody and Waite: pi/2 in three
 parts, the first two short enough that their products with the multiple are exact) and
 evaluates minimax polynomials on [-pi/4, pi/4] (fdlibm's published coefficients), then picks
-the quadrant by selects, not branches. Its results are within 1 ulp of the true values for
-|angle| up to 1e6 rad (``tests/test_trig.py`` checks that against the correctly rounded
-reference on a million angles); libm is correctly rounded in most cases, so a result may
-differ from libm's in its last bit. 0 gives exactly (1, 0), so a still robot stays exactly
-still; a non-finite angle gives NaNs.
+the quadrant by selects, not branches. Its results are within 1 ulp of libm's for |angle| up
+to 100 rad and within 2 ulp up to 1e5 rad (``tests/test_trig.py``, 200,000 angles a range);
+10-20% of them differ from libm's in the last bit. 0 gives exactly (1, 0), so a still robot
+stays exactly still; a non-finite angle gives NaNs.
 """
 
 from __future__ import annotations

@@ -16,6 +16,7 @@ from scipy.stats import mannwhitneyu
 from somite.cli import main
 
 from .campaign_fixture import UNFINISHED, build_campaign
+from .test_report_sections import skeleton, smoke_report
 
 SECTIONS = ("## Tasks", "## Table 1", "## Figure 3", "## Figure 10", "## Figure 5",
             "## Figure 11", "### Figure 7", "### Figure 8", "## Figure 9", "## Figure 12",
@@ -272,6 +273,8 @@ def test_campaign_run_smoke_then_report(tmp_path):
     check_validation(campaign, data, 10)
     for figure in ("figure7", "figure8", "rq3_reassembly"):
         assert set(data[figure]["curves"]) == {"biped", "worm"}
+    # report.json's entries in the order main's code wrote them (tests/data/report-smoke).
+    assert skeleton(data) == skeleton(smoke_report())
 
 
 OWN_NAMES = {"rq1": "graph", "ablation": "fixed-topology", "rq2-homo": "swap",

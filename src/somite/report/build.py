@@ -17,14 +17,14 @@ from ..analysis.stats import describe, to_json
 from ..formats import REPORT
 from ..tasks.validation import VALIDATION_COUNT, check_count
 from ..viz import report_figures as figures
-from . import evolution, paper, reassembly
+from . import evolution, paper
 from .campaign import read_campaign
 from .caveats import caveats
-from .discovery import discovery_rows, discovery_summary
 from .load import load, shape_name
 from .markdown import render_html, render_markdown
 from .rerun import rerun_finals
-from .sections import TITLES
+from .section import Inputs
+from .sections import in_order
 from .staging import staged_report
 from .timelapse import draw_strips
 from .transfer import read_transfer
@@ -62,13 +62,12 @@ def _write_report(campaign, loaded, new: Path, validation: int, timelapse: bool,
         "caveats": None,  # filled last, from the numbers below; kept first in report.json
         "status": {"experiments": campaign.status(loaded.broken), "unreadable": loaded.broken},
         "figures": {"fed": campaign.figures, "missing": campaign.missing_figures()},
-        "table1": evolution.table1(campaign, loaded, reruns),
     }
     stage("drawing the figures")
-    report.update(_evolution_figures(campaign, loaded, reruns, folder))
-    report.update(_reassembly_figures(campaign, loaded, folder))
-    report["discovery"] = _discovery(campaign, loaded, folder)
-    report["validation"] = _validation(rows, validation, folder)
+    inputs = Inputs(campaign, loaded, reruns, folder)
+    for section in in_order():
+        _add(report, section.build(inputs))
+    report["validation"] = _validation(rows, validation, inputs)
     report["transfer"] = read_transfer(campaign.root, {
         t.id: (t.experiment, evolution.task_shape(t, loaded)) for t in campaign.tasks
         if t.kind == "evolve" and t.id in loaded.runs})
@@ -123,71 +122,16 @@ def _validation_rows(campaign, loaded, reruns: dict) -> list[dict]:
                                        shapes.index(r["shape"])))
 
 
-def _evolution_figures(campaign, loaded, reruns: dict, folder: Path) -> dict:
-    out = {}
-    for key, members in (("figure3", campaign.fed("figure3")),
-                         ("figure10", campaign.fed("figure10"))):
-        found = evolution.groups(campaign, loaded, members)
-        out[key] = {"curves": evolution.curves(found),
-                    "files": _save(figures.curves_figure, found, folder, key, TITLES[key])}
-    for key, members in (("figure5", campaign.fed("figure5")),
-                         ("figure11", campaign.fed("figure10"))):
-        title = TITLES[key]
-        found = evolution.groups(campaign, loaded, members)
-        compared = evolution.final_comparison(found, reruns)
-        files = {}
-        for which, label in (("logged", "logged best $v_x$ [m/s]"),
-                             ("validation", "$v_x$ on the validation terrains [m/s]")):
-            panels = {shape: {g: d["values"] for g, d in c[which]["groups"].items()}
-                      for shape, c in compared.items()}
-            files[which] = _save(figures.boxes_figure, panels, folder, f"{key}-{which}",
-                                 label, f"{title} ({which})")
-        out[key] = {"comparison": compared, "files": files}
-    out["figure3"]["paper"] = paper.figure3()
-    out["figure5"]["paper"] = paper.ABLATION.to_dict()
-    # The paper's test asks whether the first experiment (topology + weights) is the faster.
-    labels = list(campaign.fed("figure5").values())
-    out["figure5"]["one_sided"] = {
-        shape: {which: evolution.one_sided(c[which], *labels) if len(labels) == 2 else None
-                for which in ("logged", "validation")}
-        for shape, c in out["figure5"]["comparison"].items()}
-    out["figure11"]["paper"] = paper.VELOCITY_BY_OMEGA.to_dict()
-    return out
+def _add(report: dict, entries: dict) -> None:
+    """A kind's section's entries, after the report's; one that would replace an entry is
+    refused (two sections with one key)."""
+    taken = sorted(set(entries) & set(report))
+    if taken:
+        raise ValueError(f"report.json's entries {taken} made by two sections")
+    report.update(entries)
 
 
-def _reassembly_figures(campaign, loaded, folder: Path) -> dict:
-    reassemblies = reassembly.reassembly_rows(campaign, loaded)
-    rows = reassembly.reoptimization_rows(campaign, loaded)
-    out = {"reassemblies": reassemblies, "reoptimizations": rows}
-    for key, label, reported in (
-        ("figure7", reassembly.figure7_label(campaign),
-         {k: r.to_dict() for k, r in paper.RHO_HOMOGENEOUS.items()}),
-        ("figure8", reassembly.figure8_label(campaign), paper.RHO_BY_OMEGA.to_dict()),
-        ("rq3_reassembly", reassembly.discovered_label(campaign), None),
-    ):
-        found = reassembly.rho_curves(rows, loaded, label)
-        out[key] = {"curves": found, "end": reassembly.end_comparison(found),
-                    "files": _save(figures.rho_figure, found, folder, key, TITLES[key]),
-                    "paper": reported}
-    eta = reassembly.eta_by_omega(campaign, reassemblies)
-    files = {}
-    for which in ("eta_num", "eta_weight"):
-        panels = {shape: {g: d["values"] for g, d in e[which]["groups"].items()}
-                  for shape, e in eta.items()}
-        files[which] = _save(figures.boxes_figure, panels, folder, f"figure9-{which}",
-                             which.replace("_", " "), f"Figure 9: {which} by omega")
-    out["figure9"] = {"eta": eta, "files": files, "paper": paper.ETA_MODULAR.to_dict()}
-    return out
-
-
-def _discovery(campaign, loaded, folder: Path) -> dict:
-    rows = discovery_rows(campaign, loaded)
-    files = _save(figures.discovery_figure, rows, folder, "figure12-discovery") \
-        if any(r["done"] for r in rows) else []
-    return {"robots": rows, "summary": discovery_summary(rows), "files": files}
-
-
-def _validation(rows: list[dict], n_terrains: int, folder: Path) -> dict:
+def _validation(rows: list[dict], n_terrains: int, inputs: Inputs) -> dict:
     summary = {}
     for row in rows:
         group = summary.setdefault(f"{row['experiment']}, {row['shape']}", [])
@@ -200,15 +144,8 @@ def _validation(rows: list[dict], n_terrains: int, folder: Path) -> dict:
                       "shape": members[0]["shape"], "n": len(members),
                       "logged": logged, "validation": describe(finite),
                       "validation_non_finite": len(members) - len(finite)})
-    files = _save(figures.validation_figure, rows, folder, "validation") if rows else []
+    files = inputs.save(figures.validation_figure, rows, "validation")
     return {"terrains": n_terrains, "robots": rows, "summary": table, "files": files}
-
-
-def _save(draw, data, folder: Path, stem: str, *args) -> list[str]:
-    """Draw and save a figure; nothing (no file) when there is nothing to draw."""
-    if not data:
-        return []
-    return figures.save(draw(data, *args), folder, stem)
 
 
 __all__ = ["build_report"]

@@ -11,10 +11,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..analysis.stats import describe
+from ..viz import report_figures as figures
 from . import paper
 from .campaign import CampaignFolder, task_row
 from .evolution import shape_order
 from .load import Loaded, shape_name
+from .reassembly import render_discovered
+from .section import Inputs, Section
+from .text import claim, images, median_sd, number, table
 
 
 def discovery_rows(campaign: CampaignFolder, loaded: Loaded) -> list[dict]:
@@ -67,4 +71,44 @@ def discovery_summary(rows: list[dict]) -> dict:
     return out
 
 
-__all__ = ["discovery_rows", "discovery_summary"]
+def build(inputs: Inputs) -> dict:
+    """The discover experiments' entry of report.json: ``discovery``."""
+    rows = discovery_rows(inputs.campaign, inputs.loaded)
+    files = inputs.save(figures.discovery_figure, rows, "figure12-discovery") \
+        if any(r["done"] for r in rows) else []
+    return {"discovery": {"robots": rows, "summary": discovery_summary(rows), "files": files}}
+
+
+def render(report: dict) -> list[str]:
+    """index.md's lines of the discovery (Figure 12), then of the reassembly along the
+    discovered modules (made by a reassemble experiment, read after the discovery)."""
+    data = report["discovery"]
+    lines = ["## Figure 12: automatic module discovery", "",
+             "Each evolved best partitioned around its most compact module (eq. 5; red in the "
+             "figure). A module *spans* when it holds voxels of the body's first and last "
+             f"column. {claim(data['summary']['paper'])}", ""]
+    rows = [[shape, s["robots"], number(s["modules"]["median"], 1),
+             number(s["best_size"]["median"], 1), median_sd(s["compactness"]),
+             f"{100 * s['spans_front_to_rear']:.0f} %"]
+            for shape, s in data["summary"].items() if shape != "paper"]
+    lines += table(["shape", "robots", "median modules", "median size of the most compact",
+                    "its compactness", "spans front to rear"], rows)
+    rows = [[r["task"], r.get("grid", "missing"), number(r.get("compactness")) + _tied(r),
+             r.get("spans_front_to_rear", "")] for r in data["robots"]]
+    lines += table(["robot", "partition (rows from the top)", "compactness", "spans"], rows)
+    return lines + images(data["files"], "Figure 12") + render_discovered(report)
+
+
+def _tied(row: dict) -> str:
+    """Beside a discovered module's compactness: how many other candidates share it."""
+    tied = row.get("tied_with_best")
+    if not tied:
+        return ""
+    others = "1 other candidate" if tied == 1 else f"{tied} other candidates"
+    return f" (tied with {others}; the first ranked is taken)"
+
+
+SECTION = Section(build, render)
+"""The discover experiments' part of the report."""
+
+__all__ = ["SECTION", "build", "discovery_rows", "discovery_summary", "render"]

@@ -13,10 +13,23 @@ from __future__ import annotations
 import numpy as np
 
 from ..analysis.stats import RunLog, describe, pairwise_mann_whitney, small_sample_caveat
+from ..viz import report_figures as figures
 from ..viz.plots import curve
 from . import paper
 from .campaign import CampaignFolder, Task
 from .load import Loaded, shape_name
+from .section import Inputs, Section
+from .text import claim, images, median_sd, number, p_noted, pair_rows, table
+
+TITLES = {
+    "table1": "Table 1: the best controller at the start and at the end",
+    "figure3": "Figure 3: best v_x and |G| over the generations",
+    "figure10": "Figure 10: best v_x and |G| by omega",
+    "figure5": "Figure 5: final best v_x, with and without topology optimisation",
+    "figure11": "Figure 11: final best v_x by omega",
+}
+"""The heading of each of this section's entries in index.md, by its key in report.json (the
+title drawn on its figure too)."""
 
 SHAPES = ("biped", "worm")
 """The paper's panel order: biped left, worm right."""
@@ -164,5 +177,165 @@ def one_sided(comparison: dict, a: str, b: str) -> dict | None:
             "caveat": small_sample_caveat(n_a, n_b)}
 
 
-__all__ = ["compare", "curves", "final_comparison", "groups",
-           "one_sided", "shape_order", "table1", "task_shape"]
+def build(inputs: Inputs) -> dict:
+    """The evolve experiments' entries of report.json: Table 1, then Figures 3, 10, 5, 11."""
+    campaign, loaded = inputs.campaign, inputs.loaded
+    out = {"table1": table1(campaign, loaded, inputs.reruns)}
+    for key, members in (("figure3", campaign.fed("figure3")),
+                         ("figure10", campaign.fed("figure10"))):
+        found = groups(campaign, loaded, members)
+        out[key] = {"curves": curves(found),
+                    "files": inputs.save(figures.curves_figure, found, key, TITLES[key])}
+    for key, members in (("figure5", campaign.fed("figure5")),
+                         ("figure11", campaign.fed("figure10"))):
+        out[key] = _boxes(inputs, key, groups(campaign, loaded, members))
+    out["figure3"]["paper"] = paper.figure3()
+    out["figure5"]["paper"] = paper.ABLATION.to_dict()
+    # The paper's test asks whether the first experiment (topology + weights) is the faster.
+    labels = list(campaign.fed("figure5").values())
+    out["figure5"]["one_sided"] = {
+        shape: {which: one_sided(c[which], *labels) if len(labels) == 2 else None
+                for which in ("logged", "validation")}
+        for shape, c in out["figure5"]["comparison"].items()}
+    out["figure11"]["paper"] = paper.VELOCITY_BY_OMEGA.to_dict()
+    return out
+
+
+def _boxes(inputs: Inputs, key: str, found: Groups) -> dict:
+    """Figure 5 or 11: the final v_x compared, logged and on the validation terrains."""
+    compared = final_comparison(found, inputs.reruns)
+    files = {}
+    for which, label in (("logged", "logged best $v_x$ [m/s]"),
+                         ("validation", "$v_x$ on the validation terrains [m/s]")):
+        panels = {shape: {g: d["values"] for g, d in c[which]["groups"].items()}
+                  for shape, c in compared.items()}
+        files[which] = inputs.save(figures.boxes_figure, panels, f"{key}-{which}", label,
+                                   f"{TITLES[key]} ({which})")
+    return {"comparison": compared, "files": files}
+
+
+def render(report: dict) -> list[str]:
+    """index.md's lines of the evolve experiments: Table 1, the curves, the final v_x."""
+    return _render_table1(report) + _render_curves(report) + _render_boxes(report)
+
+
+def _render_table1(report: dict) -> list[str]:
+    lines = [f"## {TITLES['table1']}", "",
+             "Median ± sd across runs of the best individual's |V|, |E|, |G| and v_x [m/s] at "
+             "generation 0 and at the last generation; the paper's row (its RQ1, 10 runs, 3000 "
+             "generations) below ours, for the experiment that declares `table1`.", ""]
+    rows = []
+    for row in report["table1"]:
+        rows.append(_table1_row(row))
+        if row["paper"]:
+            rows.append(_table1_paper_row(row["shape"], row["paper"]))
+    header = ["experiment", "shape", "runs", "generations", "initial \\|V\\|", "initial \\|E\\|",
+              "initial \\|G\\|", "initial v_x", "final \\|V\\|", "final \\|E\\|",
+              "final \\|G\\|", "final v_x (logged)", "final v_x (validation)",
+              "\\|G\\| increase"]
+    return lines + table(header, rows)
+
+
+def _table1_row(row: dict) -> list:
+    i, f = row["initial"], row["final"]
+    return [row["experiment"], row["shape"], f"{row['n']} of {row['tasks']}",
+            number(row["generations"]["median"], 0),
+            median_sd(i["nodes"], 1), median_sd(i["edges"], 1), median_sd(i["size"], 1),
+            median_sd(i["velocity"]), median_sd(f["nodes"], 1), median_sd(f["edges"], 1),
+            median_sd(f["size"], 1), median_sd(f["velocity"]), median_sd(row["validation"]) + (
+                f" ({row['validation_non_finite']} non-finite)"
+                if row["validation_non_finite"] else ""),
+            number(row["size_increase"] * 100, 0) + " %"
+            if row["size_increase"] == row["size_increase"] else "n/a"]
+
+
+def _table1_paper_row(shape: str, p: dict) -> list:
+    show = {w: {k: paper.Reported(**v).show() for k, v in p[w].items()}
+            for w in ("initial", "final")}
+    return ["paper", shape, "10", "3000", show["initial"]["nodes"],
+            show["initial"]["edges"], show["initial"]["size"],
+            show["initial"]["velocity"], show["final"]["nodes"],
+            show["final"]["edges"], show["final"]["size"],
+            show["final"]["velocity"], "not measured",
+            number(p["size_increase"]["value"] * 100, 0) + " %"]
+
+
+def _render_curves(report: dict) -> list[str]:
+    lines = []
+    for key in ("figure3", "figure10"):
+        title = TITLES[key]
+        lines += [f"## {title}", "",
+                  "Median ± sd across runs (line and band); dashed with dots: the median of the "
+                  "logged validation v_x, where the runs measured it.", ""]
+        if key == "figure3":
+            lines += _figure3_beside_paper(report["figure3"])
+        lines += images(report[key]["files"], title)
+    return lines
+
+
+def _figure3_beside_paper(data: dict) -> list[str]:
+    """Figure 3's curves at their two ends, median across runs, beside what the paper says
+    (v_x from section 5.1, |G| from Table 1)."""
+    reported = data.get("paper")
+    rows = []
+    for shape, labelled in data["curves"].items():
+        for group, c in labelled.items():
+            if not c["generation"]:
+                continue
+            last_validation = (f"{number(c['validation_median'][-1])} (generation "
+                               f"{number(c['validation_generation'][-1], 0)})"
+                               if c["validation_median"] else "n/a")
+            rows.append([shape, group, len(c["runs"]), number(c["generation"][-1], 0),
+                         number(c["velocity_median"][0]), number(c["velocity_median"][-1]),
+                         last_validation, number(c["size_median"][0], 1),
+                         number(c["size_median"][-1], 1)])
+            if reported and shape in reported["size"]:
+                size = reported["size"][shape]
+                rows.append(["paper", "", "10", "3000",
+                             paper.Reported(**reported["velocity_start"]).show(),
+                             paper.Reported(**reported["velocity_end"]).show(),
+                             "not measured", paper.Reported(**size["initial"]).show(),
+                             paper.Reported(**size["final"]).show()])
+    if not rows:
+        return []
+    lines = ["The curves at both ends (median across runs), the paper's row below ours "
+             "(v_x: section 5.1, averaged over both shapes; |G|: Table 1):", ""]
+    return lines + table(["shape", "group", "runs", "last generation", "v_x at generation 0",
+                          "v_x at the last (logged)", "v_x at the last validation",
+                          "\\|G\\| at generation 0", "\\|G\\| at the last"], rows)
+
+
+def _render_boxes(report: dict) -> list[str]:
+    lines = []
+    for key in ("figure5", "figure11"):
+        title = TITLES[key]
+        data = report[key]
+        lines += [f"## {title}", "", claim(data["paper"]), ""]
+        rows, tests = [], []
+        for shape, c in data["comparison"].items():
+            for group, logged in c["logged"]["groups"].items():
+                validated = c["validation"]["groups"].get(group, {})
+                rows.append([shape, group, logged["n"], median_sd(logged),
+                             median_sd(validated)])
+            tests += pair_rows(c["logged"], f"{shape}, logged")
+            tests += pair_rows(c["validation"], f"{shape}, validation")
+        lines += table(["shape", "group", "runs", "logged v_x", "v_x on validation terrains"],
+                       rows)
+        lines += table(["sample", "pair", "n_a", "n_b", "U", "p (two-sided)"], tests)
+        paper_tests = [[f"{shape}, {which}", f"{t['a']} > {t['b']}", number(t["u"], 1),
+                        p_noted(t)]
+                       for shape, found in data.get("one_sided", {}).items()
+                       for which, t in found.items() if t is not None]
+        if paper_tests:
+            lines += ["The paper's own test, one-sided:", ""]
+            lines += table(["sample", "alternative", "U", "p (one-sided)"], paper_tests)
+        lines += images(data["files"]["logged"], title + " (logged)")
+        lines += images(data["files"]["validation"], title + " (validation)")
+    return lines
+
+
+SECTION = Section(build, render)
+"""The evolve experiments' part of the report."""
+
+__all__ = ["SECTION", "TITLES", "build", "compare", "curves", "final_comparison", "groups",
+           "one_sided", "render", "shape_order", "table1", "task_shape"]

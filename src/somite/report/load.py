@@ -34,7 +34,8 @@ class Loaded:
     the episode settings of ``config.json``);
     ``transfer``: reoptimize tasks' ``transfer.csv`` rows; ``reassembly``: reassemble tasks'
     ``report.json``; ``discovery``: discover tasks' ``partition.json``; ``broken``: finished
-    tasks that could not be read, with why.
+    tasks that could not be read, with why; ``other``: what a kind reads under a name of its
+    own.
     """
 
     runs: dict[str, RunLog] = field(default_factory=dict)
@@ -44,16 +45,25 @@ class Loaded:
     reassembly: dict[str, dict] = field(default_factory=dict)
     discovery: dict[str, dict] = field(default_factory=dict)
     broken: dict[str, str] = field(default_factory=dict)
-
+    other: dict[str, dict[str, object]] = field(default_factory=dict)
+    """What a kind's ``read`` found under a name that is none of the fields above (a new
+    kind's own): name -> task id -> value; :meth:`found` reads it."""
 
     def add(self, task_id: str, found: dict) -> None:
-        """What a kind's ``read`` found of a task: field of this class -> the task's value."""
+        """What a kind's ``read`` found of a task: name -> the task's value, kept under the
+        field of that name, else under ``other``."""
         for name, value in found.items():
-            getattr(self, name)[task_id] = value
+            self.found(name)[task_id] = value
+
+    def found(self, name: str) -> dict:
+        """Task id -> what the kinds' ``read`` found under ``name``."""
+        if name in FIELDS:
+            return getattr(self, name)
+        return self.other.setdefault(name, {})
 
 
-FIELDS = tuple(f.name for f in fields(Loaded) if f.name != "broken")
-"""The fields a kind's ``read`` may fill."""
+FIELDS = tuple(f.name for f in fields(Loaded) if f.name not in ("broken", "other"))
+"""The fields a kind's ``read`` fills by name."""
 
 
 def load(campaign: CampaignFolder) -> Loaded:

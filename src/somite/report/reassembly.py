@@ -16,11 +16,23 @@ from __future__ import annotations
 import numpy as np
 
 from ..analysis.stats import RunLog
+from ..viz import report_figures as figures
 from ..viz.plots import curve
 from . import paper
 from .campaign import CampaignFolder, Task, task_row
 from .evolution import compare, shape_order
 from .load import Loaded, shape_name
+from .section import Inputs, Section
+from .text import claim, images, number, pair_rows, table
+
+TITLES = {
+    "figure7": "Figure 7: rho during re-optimisation, homogeneous and heterogeneous reassembly",
+    "figure8": "Figure 8: rho during re-optimisation by omega (homogeneous reassembly)",
+    "figure9": "Figure 9: edges cut by disassembly (eta) by omega",
+    "rq3_reassembly": "Beyond the paper: reassembly along the discovered modules",
+}
+"""The heading of each of this section's entries in index.md, by its key in report.json (the
+title drawn on its figure too)."""
 
 
 def _linked(campaign: CampaignFolder, task: Task, option: str, kind: str) -> list[Task]:
@@ -184,5 +196,113 @@ def _float(value) -> float:
     return float("nan") if value is None else float(value)
 
 
-__all__ = ["discovered_label", "end_comparison", "eta_by_omega", "figure7_label",
-           "figure8_label", "reassembly_rows", "reoptimization_rows", "rho_curves"]
+def build(inputs: Inputs) -> dict:
+    """The reassemble experiments' entries of report.json (with their re-optimisations'):
+    the rows, the rho curves of Figures 7 and 8 and along the discovered modules, then the
+    cut ratios of Figure 9."""
+    campaign, loaded = inputs.campaign, inputs.loaded
+    reassemblies = reassembly_rows(campaign, loaded)
+    rows = reoptimization_rows(campaign, loaded)
+    out = {"reassemblies": reassemblies, "reoptimizations": rows}
+    for key, label, reported in (
+        ("figure7", figure7_label(campaign),
+         {k: r.to_dict() for k, r in paper.RHO_HOMOGENEOUS.items()}),
+        ("figure8", figure8_label(campaign), paper.RHO_BY_OMEGA.to_dict()),
+        ("rq3_reassembly", discovered_label(campaign), None),
+    ):
+        found = rho_curves(rows, loaded, label)
+        out[key] = {"curves": found, "end": end_comparison(found),
+                    "files": inputs.save(figures.rho_figure, found, key, TITLES[key]),
+                    "paper": reported}
+    eta = eta_by_omega(campaign, reassemblies)
+    files = {}
+    for which in ("eta_num", "eta_weight"):
+        panels = {shape: {g: d["values"] for g, d in e[which]["groups"].items()}
+                  for shape, e in eta.items()}
+        files[which] = inputs.save(figures.boxes_figure, panels, f"figure9-{which}",
+                                   which.replace("_", " "), f"Figure 9: {which} by omega")
+    out["figure9"] = {"eta": eta, "files": files, "paper": paper.ETA_MODULAR.to_dict()}
+    return out
+
+
+def render(report: dict) -> list[str]:
+    """index.md's lines of the reassemblies: rho (Figures 7 and 8), then eta (Figure 9). The
+    reassembly along the discovered modules follows the discovery (:func:`render_discovered`)."""
+    return _render_rho(report) + _render_eta(report)
+
+
+def _rho_table(data: dict, reported=None) -> list[str]:
+    rows, tests = [], []
+    for shape, found in data["curves"].items():
+        for group, g in found.items():
+            start = [m[0] for m in [g["median"]] if m]
+            said = ""
+            if reported and group == "homogeneous" and shape in reported:
+                said = reported[shape]["text"]
+            rows.append([shape, group, len(g["tasks"]), number(start[0] if start else None),
+                         number(g["median"][-1] if g["median"] else None), said])
+        tests += pair_rows(data["end"][shape], shape)
+    lines = table(["shape", "group", "re-optimisations", "median rho at the start",
+                   "median rho at the end", "paper"], rows)
+    if tests:
+        lines += ["rho at the end of the re-optimisation, compared:", ""]
+        lines += table(["shape", "pair", "n_a", "n_b", "U", "p (two-sided)"], tests)
+    return lines
+
+
+def _render_rho(report: dict) -> list[str]:
+    lines = ["## Figures 7 and 8: transferability rho during re-optimisation", "",
+             "rho = v_x of the re-optimised robot's best / mean v_x of its two donors, every v_x "
+             "the mean over the validation terrains (transfer.csv); the line is the median over "
+             "the reassembled robots, the band ± sd. rho = 1 recovers the donors' velocity.", ""]
+    lines += [f"### {TITLES['figure7']}", ""]
+    lines += _rho_table(report["figure7"], report["figure7"]["paper"])
+    lines += images(report["figure7"]["files"], "Figure 7")
+    lines += [f"### {TITLES['figure8']}", "",
+              claim(report["figure8"]["paper"]), ""]
+    lines += _rho_table(report["figure8"])
+    lines += images(report["figure8"]["files"], "Figure 8")
+    return lines
+
+
+def _render_eta(report: dict) -> list[str]:
+    data = report["figure9"]
+    lines = [f"## {TITLES['figure9']}", "",
+             "eta_num: share of the donors' edges that cross modules and are dropped; "
+             "eta_weight: the same share of sum(|w| + |b|); pooled over both donors of each "
+             "homogeneous reassembly (the authors' count).", "",
+             claim(data["paper"]), ""]
+    rows, tests = [], []
+    for shape, e in data["eta"].items():
+        reported = e.get("paper_omega_1", {})
+        for group in e["eta_num"]["groups"]:
+            num, weight = e["eta_num"]["groups"][group], e["eta_weight"]["groups"][group]
+            said = ""
+            if group == "omega 1" and reported:
+                said = (f"{reported['eta_num']['value']} / {reported['eta_weight']['value']} "
+                        f"({reported['eta_num']['where']})")
+            rows.append([shape, group, num["n"], number(num["median"]),
+                         number(weight["median"]), said])
+        tests += pair_rows(e["eta_num"], f"{shape}, eta_num")
+        tests += pair_rows(e["eta_weight"], f"{shape}, eta_weight")
+    lines += table(["shape", "donors", "reassemblies", "median eta_num", "median eta_weight",
+                    "paper (median eta_num / eta_weight)"], rows)
+    lines += table(["sample", "pair", "n_a", "n_b", "U", "p (two-sided)"], tests)
+    for which, files in data["files"].items():
+        lines += images(files, f"Figure 9, {which}")
+    return lines
+
+
+def render_discovered(report: dict) -> list[str]:
+    """index.md's lines of the reassembly along the discovered modules."""
+    lines = [f"## {TITLES['rq3_reassembly']}", ""]
+    lines += _rho_table(report["rq3_reassembly"])
+    return lines + images(report["rq3_reassembly"]["files"], "rho along discovered modules")
+
+
+SECTION = Section(build, render)
+"""The reassemble experiments' part of the report (their re-optimisations' with it)."""
+
+__all__ = ["SECTION", "TITLES", "build", "discovered_label", "end_comparison",
+           "eta_by_omega", "figure7_label", "figure8_label", "reassembly_rows",
+           "reoptimization_rows", "render", "render_discovered", "rho_curves"]

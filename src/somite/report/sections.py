@@ -1,19 +1,29 @@
-"""The title of each section of a report, by its key in ``report.json``: the heading in the
-report's markdown and the title drawn on its figures. Which experiments feed a section is the
-campaign's declaration (:mod:`somite.campaigns.figures`); how it is titled lives here."""
+"""Each experiment kind's section of the report, by kind: the one list the report reads.
+
+The report builds and shows them in the order of
+:data:`somite.campaigns.kinds.EXPERIMENT_KINDS` (a section's build and render:
+:mod:`.section`). A new kind of experiment gets its part of the report by a module of its own
+here (its ``SECTION``) and its line below; a kind with nothing to show still has its line, a
+:class:`~.section.Section` that builds ``{}`` and renders ``[]``.
+"""
 
 from __future__ import annotations
 
-TITLES: dict[str, str] = {
-    "table1": "Table 1: the best controller at the start and at the end",
-    "figure3": "Figure 3: best v_x and |G| over the generations",
-    "figure10": "Figure 10: best v_x and |G| by omega",
-    "figure5": "Figure 5: final best v_x, with and without topology optimisation",
-    "figure11": "Figure 11: final best v_x by omega",
-    "figure7": "Figure 7: rho during re-optimisation, homogeneous and heterogeneous reassembly",
-    "figure8": "Figure 8: rho during re-optimisation by omega (homogeneous reassembly)",
-    "figure9": "Figure 9: edges cut by disassembly (eta) by omega",
-    "rq3_reassembly": "Beyond the paper: reassembly along the discovered modules",
-}
+from ..campaigns.kinds import EXPERIMENT_KINDS
+from . import discovery, evolution, reassembly
+from .section import Section
 
-__all__ = ["TITLES"]
+SECTIONS: dict[str, Section] = {
+    "evolve": evolution.SECTION,
+    "reassemble": reassembly.SECTION,  # its re-optimisations' too
+    "discover": discovery.SECTION,
+}
+"""Experiment kind -> its section of the report."""
+
+
+def in_order() -> list[Section]:
+    """Every experiment kind's section, in the order of the kinds."""
+    return [SECTIONS[kind] for kind in EXPERIMENT_KINDS]
+
+
+__all__ = ["SECTIONS", "in_order"]

@@ -1,0 +1,67 @@
+"""The pieces ``index.md`` is written with: numbers as cells, tables, figures, the paper's
+claims and the rows of a comparison's tests. The core sections (:mod:`.markdown`) and each
+experiment kind's section (:mod:`.sections`) write with them."""
+
+from __future__ import annotations
+
+import math
+
+FIGURES = "figures"
+"""The report's folder of figures, as index.md links it."""
+
+
+def number(value, digits: int = 3) -> str:
+    """A table cell: a float to ``digits`` decimals, ``n/a`` for None or non-finite."""
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "n/a"
+    return f"{value:.{digits}f}" if isinstance(value, float) else str(value)
+
+
+def median_sd(summary: dict, digits: int = 3) -> str:
+    """``median ± sd`` of a :func:`~somite.analysis.stats.describe` summary."""
+    if not summary or not summary.get("n"):
+        return "n/a"
+    return f"{number(summary['median'], digits)} ± {number(summary['std'], digits)}"
+
+
+def p_value(value) -> str:
+    if value is None or not math.isfinite(value):
+        return "n/a"
+    return "< 0.001" if value < 0.001 else f"{value:.3g}"
+
+
+def table(header: list[str], rows: list[list]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return lines + [""]
+
+
+def images(files, alt: str) -> list[str]:
+    """A figure's PNG shown, its other formats linked; a line saying so when it has none."""
+    if not files:
+        return ["*No finished task for this figure.*", ""]
+    png = next((f for f in files if f.endswith(".png")), files[0])
+    others = ", ".join(f"[{f.rsplit('.', 1)[-1].upper()}]({FIGURES}/{f})" for f in files
+                       if f != png)
+    return [f"![{alt}]({FIGURES}/{png})", "", others, ""] if others else [
+        f"![{alt}]({FIGURES}/{png})", ""]
+
+
+def claim(reported: dict) -> str:
+    return f"Paper ({reported['where']}): {reported['text']}."
+
+
+def p_noted(test: dict) -> str:
+    """A test's p-value, with its caveat beside it where its groups are too small."""
+    caveat = test.get("caveat")
+    return f"{p_value(test['p'])} ({caveat})" if caveat else p_value(test["p"])
+
+
+def pair_rows(comparison: dict, label: str) -> list[list]:
+    """One table row per pairwise test of a comparison (:func:`.evolution.compare`)."""
+    return [[label, f"{t['a']} vs {t['b']}", t["n_a"], t["n_b"], number(t["u"], 1),
+             p_noted(t)] for t in comparison["tests"]]
+
+
+__all__ = ["FIGURES", "claim", "images", "median_sd", "number", "p_noted", "p_value",
+           "pair_rows", "table"]

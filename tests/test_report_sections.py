@@ -1,0 +1,68 @@
+"""Each experiment kind's section of the report (:mod:`somite.report.sections`): one per kind,
+in the kinds' order, and the smoke campaign's report written as main's code wrote it
+(``tests/data/report-smoke``, made by ``somite report`` before the sections were split out)."""
+
+from __future__ import annotations
+
+import gzip
+import json
+from pathlib import Path
+
+import pytest
+
+from somite.campaigns.kinds import EXPERIMENT_KINDS
+from somite.report import build, markdown, sections
+from somite.report.load import Loaded
+from somite.report.section import Section
+
+SMOKE = Path(__file__).resolve().parent / "data" / "report-smoke"
+
+
+def smoke_report() -> dict:
+    """report.json of the smoke campaign, as main's code wrote it."""
+    return json.loads(gzip.decompress((SMOKE / "report.json.gz").read_bytes()))
+
+
+def skeleton(report: dict) -> list:
+    """report.json's entries in order, each with its own entries' names in order (the names
+    one level down do not depend on the campaign's numbers)."""
+    return [(key, list(value) if isinstance(value, dict) else type(value).__name__)
+            for key, value in report.items()]
+
+
+def test_every_experiment_kind_has_a_section():
+    assert list(sections.SECTIONS) == list(EXPERIMENT_KINDS)
+    assert all(isinstance(s, Section) for s in sections.in_order())
+
+
+def test_index_md_of_the_smoke_report_is_the_one_main_wrote():
+    expected = (SMOKE / "index.md").read_text(encoding="utf-8")
+    assert markdown.render_markdown(smoke_report()) == expected
+
+
+def test_a_new_kind_shows_its_section_after_the_others(monkeypatch):
+    """A kind's section is all the report needs of it: its entry in SECTIONS (and its kind
+    in EXPERIMENT_KINDS) puts its lines between the built-in kinds' and the shared ones."""
+    extra = Section(lambda inputs: {"bake": {"loaves": 3}},
+                    lambda report: [f"## Baked: {report['bake']['loaves']} loaves", ""])
+    monkeypatch.setattr(sections, "SECTIONS", {**sections.SECTIONS, "bake": extra})
+    monkeypatch.setattr(sections, "EXPERIMENT_KINDS", (*EXPERIMENT_KINDS, "bake"))
+    report = {**smoke_report(), "bake": {"loaves": 3}}
+    text = markdown.render_markdown(report)
+    assert text.index("## Figure 12") < text.index("## Baked: 3 loaves") < text.index(
+        "## Beyond the paper: every final best")
+
+
+def test_two_sections_with_one_entry_are_refused():
+    report = {"figure3": {}}
+    build._add(report, {"bake": 1})
+    assert list(report) == ["figure3", "bake"]
+    with pytest.raises(ValueError, match="figure3"):
+        build._add(report, {"figure3": 2})
+
+
+def test_what_a_new_kind_reads_is_kept_under_its_own_name():
+    loaded = Loaded()
+    loaded.add("bake/a", {"runs": "log", "loaves": 3})
+    assert loaded.runs == {"bake/a": "log"}
+    assert loaded.found("loaves") == {"bake/a": 3} and loaded.other == {"loaves": {"bake/a": 3}}

@@ -140,3 +140,31 @@ def test_a_bare_resume_of_a_run_killed_before_its_config_is_refused(tmp_path, ca
     err = capsys.readouterr().err
     assert "killed before it saved config.json" in err and err.count("\n") == 1
     assert list((tmp_path / "run").iterdir()) == []
+
+
+def test_a_checkpoint_sealed_as_the_run_writes_is_the_one_sealed_from_its_files(
+        finished, tmp_path, monkeypatch):
+    """The digests a run keeps as it writes its history seal every checkpoint exactly as
+    reading log.csv and bests.jsonl again does (as runs sealed before they were kept): a
+    new run, a resume's cut-back, and a cut-back over a thinned best (a pack's)."""
+    from somite.experiments import runner
+    from somite.experiments.history import line_digest, seal_checkpoint, thinned_line
+
+    sealed = []
+
+    def both_ways(data, folder, digests=None):
+        assert digests is not None
+        kept = seal_checkpoint(data, folder, digests)
+        assert kept == seal_checkpoint(data, folder), data["generation"]
+        sealed.append(data["generation"])
+        return kept
+
+    monkeypatch.setattr(runner, "seal_checkpoint", both_ways)
+    assert main(_args(tmp_path / "new", "--generations", "3")) == 0
+    run = _copy(finished, tmp_path / "thinned")
+    lines = _lines(run / "bests.jsonl")
+    lines[3] = thinned_line(3, line_digest("bests", lines[3].rstrip("\n"))) + "\n"
+    (run / "bests.jsonl").write_text("".join(lines))
+    assert main(_args(run, "--generations", "8", "--resume")) == 0
+    assert sealed == [0, 2, 3, 8]
+    assert _lines(run / "bests.jsonl")[3] == lines[3]

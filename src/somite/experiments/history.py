@@ -21,7 +21,7 @@ import hashlib
 import json
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from .._io import read_text
@@ -95,18 +95,42 @@ def check_checkpoint(history: History, ea, population: int, path: Path) -> None:
                   f"{logged!r} at generation {ea.generation}")
 
 
-def seal_checkpoint(data: dict, folder: Path) -> dict:
+@dataclass
+class Digests:
+    """The short digest (:func:`line_digest`) of every complete line of a run's ``log.csv``
+    (its header left out) and ``bests.jsonl``, kept as the run writes them: the digests
+    :func:`seal_checkpoint` would otherwise read both files again for, at every checkpoint
+    (tens of MB at the paper's budget)."""
+
+    log: list[str] = field(default_factory=list)
+    bests: list[str] = field(default_factory=list)
+
+    def wrote(self, name: str, text: str) -> None:
+        """``text`` (whole lines, each ending in a newline) was appended to the file of
+        ``name`` (``log`` or ``bests``): its lines are split and digested as a reading of
+        the file would split and digest them."""
+        getattr(self, name).extend(line_digest(name, line) for line in text.split("\n")[:-1])
+
+    def up_to(self, generation: int) -> dict[str, list[str]]:
+        """The digests of generations 0 to ``generation``, as a checkpoint's ``history``."""
+        return {name: getattr(self, name)[: generation + 1] for name in HISTORY_FILES}
+
+
+def seal_checkpoint(data: dict, folder: Path, digests: Digests | None = None) -> dict:
     """``data`` (a checkpoint at ``data["generation"]``) with a short digest of each line of
     the run's history up to it (``history``: the log rows and bests lines of generations 0 to
-    it, as in ``folder`` now) and a checksum of the whole (``sha256``): a checkpoint, log row
-    or best changed afterwards, even in a value that still parses, is then found by
-    :func:`check_checksum` and :func:`check_history` (naming the line) instead of resumed
-    into another run.
+    it, as in ``folder`` now, or as ``digests`` kept them while the run wrote them) and a
+    checksum of the whole (``sha256``): a checkpoint, log row or best changed afterwards, even
+    in a value that still parses, is then found by :func:`check_checksum` and
+    :func:`check_history` (naming the line) instead of resumed into another run.
 
     The wall-clock time (:data:`UNSEALED`) is left out of both, so that a run's checkpoints
     stay the same from machine to machine, as its other files do; it is only checked to be
     a time."""
-    sealed = {**data, "history": _line_digests(folder, data["generation"])}
+    generation = data["generation"]
+    history = (_line_digests(folder, generation) if digests is None
+               else digests.up_to(generation))
+    sealed = {**data, "history": history}
     sealed["sha256"] = _checksum(sealed)
     return sealed
 
@@ -136,7 +160,7 @@ def check_history(data: dict, path: Path) -> None:
     generation = data["generation"]
     found = _line_digests(path.parent, generation)
     for name, first in (("log", 2), ("bests", 1)):
-        file = path.parent / _FILES[name]
+        file = path.parent / HISTORY_FILES[name]
         written, now = data["history"][name], found[name]
         for index, (old, new) in enumerate(zip(written, now)):
             if old != new:
@@ -147,7 +171,8 @@ def check_history(data: dict, path: Path) -> None:
                       f"generation {generation} was written after {len(written)} generations")
 
 
-_FILES = {"log": "log.csv", "bests": "bests.jsonl"}
+HISTORY_FILES = {"log": "log.csv", "bests": "bests.jsonl"}
+"""The files of a run's history, by the name its errors and digests give them."""
 
 
 UNSEALED = "elapsed_seconds"
@@ -177,7 +202,7 @@ def _line_digests(folder: Path, generation: int) -> dict[str, list[str]]:
     Eight hex digits a line: a few kB for thousands of generations."""
     return {name: [line_digest(name, line) for _, line in
                    _complete_lines(folder / file, name, name == "log")[: generation + 1]]
-            for name, file in _FILES.items()}
+            for name, file in HISTORY_FILES.items()}
 
 
 def _complete_lines(path: Path, field: str, header: bool) -> list[tuple[int, str]]:
@@ -272,5 +297,6 @@ def line_digest(name: str, line: str) -> str:
     return hashlib.sha256(_sealed_part(name, line).encode("utf-8")).hexdigest()[:8]
 
 
-__all__ = ["THINNED", "History", "check_checkpoint", "check_checksum", "check_history",
-           "line_digest", "read_history", "seal_checkpoint", "thinned_line"]
+__all__ = ["HISTORY_FILES", "THINNED", "Digests", "History", "check_checkpoint",
+           "check_checksum", "check_history", "line_digest", "read_history", "seal_checkpoint",
+           "thinned_line"]

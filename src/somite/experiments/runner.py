@@ -59,6 +59,8 @@ from ..formats import CHECKPOINT, MANIFEST_FILE
 from ..sim.body import Body
 from .config import RunConfig, resolve
 from .history import (
+    HISTORY_FILES,
+    Digests,
     History,
     check_checkpoint,
     check_checksum,
@@ -91,10 +93,14 @@ def run_fingerprint(config: RunConfig, body: Body) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def save_checkpoint(path: Path, ea: GraphEA, config: RunConfig) -> None:
+def save_checkpoint(path: Path, ea: GraphEA, config: RunConfig,
+                    digests: Digests | None = None) -> None:
+    """Write the checkpoint of ``ea``, sealed (:func:`~.history.seal_checkpoint`) with the
+    history's ``digests`` kept as it was written, or else read from the run's files."""
     data = {**CHECKPOINT.header(),
             "run": run_fingerprint(config, ea.body), **ea.state()}
-    write_atomic(path, json.dumps(seal_checkpoint(data, path.parent), separators=(",", ":")))
+    write_atomic(path, json.dumps(seal_checkpoint(data, path.parent, digests),
+                                  separators=(",", ":")))
 
 
 def load_checkpoint(path: Path, config: RunConfig, logged: int) -> GraphEA:
@@ -138,6 +144,10 @@ class RunDirectory:
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         self.lock = RunLock(self.path)
+        self.digests: Digests | None = None
+        """The digests of the lines of log.csv and bests.jsonl, kept from the moment this
+        object wrote those files whole (a new run, a resume's cut-back); None before, and
+        a checkpoint is then sealed from the files."""
 
     def locked(self) -> RunDirectory:
         """Create the folder if need be and take its lock (see :mod:`.lock`); a context
@@ -276,6 +286,7 @@ class RunDirectory:
         write_atomic(self.file(PHYSICS_FILE), started())
         write_atomic(self.file("log.csv"), ",".join(LOG_COLUMNS) + "\n")
         write_atomic(self.file("bests.jsonl"), "")
+        self.digests = Digests()
 
     def check_resumable(self) -> None:
         """Refuse, before anything is written, a run whose files a resume could not rewrite
@@ -309,14 +320,20 @@ class RunDirectory:
     def cut_back(self, generation: int, history: History) -> None:
         """Keep the log rows and best genomes up to ``generation`` (``history``, checked by
         :func:`~.history.read_history`): the rest the resumed run writes again."""
+        self.digests = None  # until both files are written whole again
         out = io.StringIO()
         writer = csv.DictWriter(out, LOG_COLUMNS, lineterminator="\n")
         writer.writeheader()
         writer.writerows(history.rows[: generation + 1])
-        write_atomic(self.file("log.csv"), out.getvalue())
+        log = out.getvalue()
+        write_atomic(self.file("log.csv"), log)
         kept = history.bests[: generation + 1]
-        write_atomic(self.file("bests.jsonl"),
-                     "".join(json.dumps(e, separators=(",", ":")) + "\n" for e in kept))
+        bests = "".join(json.dumps(e, separators=(",", ":")) + "\n" for e in kept)
+        write_atomic(self.file("bests.jsonl"), bests)
+        digests = Digests()
+        digests.wrote("log", log.split("\n", 1)[1])
+        digests.wrote("bests", bests)
+        self.digests = digests
 
     def append(self, row: dict, best: Genome) -> None:
         """Write a generation's log row and its best genome. A failed append (a full disk)
@@ -327,19 +344,23 @@ class RunDirectory:
             "operator": row["best_operator"],
             "genome": json.loads(best.to_compact()),
         }
-        for name, line in (("log.csv", format_row(row)),
-                           ("bests.jsonl", json.dumps(entry, separators=(",", ":")))):
+        for name, line in (("log", format_row(row)),
+                           ("bests", json.dumps(entry, separators=(",", ":")))):
+            file = HISTORY_FILES[name]
             try:
-                with open(self.file(name), "a", encoding="utf-8") as handle:
+                with open(self.file(file), "a", encoding="utf-8") as handle:
                     handle.write(line + "\n")
             except OSError as error:
-                raise bad("out", str(self.path), f"cannot append to its {name} "
+                self.digests = None  # the file holds what no digest says: read it again
+                raise bad("out", str(self.path), f"cannot append to its {file} "
                           f"({error.strerror or error}); --resume continues from the last "
                           "checkpoint") from None
+            if self.digests is not None:
+                self.digests.wrote(name, line + "\n")
 
     def save(self, ea: GraphEA, config: RunConfig) -> None:
         ea.best.save(self.file("best.json"))
-        save_checkpoint(self.file("checkpoint.json"), ea, config)
+        save_checkpoint(self.file("checkpoint.json"), ea, config, self.digests)
 
 
 Progress = Callable[[GraphEA, dict], None]

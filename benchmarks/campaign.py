@@ -21,8 +21,8 @@ from pathlib import Path
 from somite.bench import bench
 from somite.campaigns.directory import document, prepare
 from somite.campaigns.executor import execute, sizing
+from somite.campaigns.expansion import expand
 from somite.campaigns.spec import parse
-from somite.campaigns.tasks import expand
 
 
 def main() -> dict:

@@ -441,17 +441,17 @@ def test_report_names_a_finished_run_without_its_bests(made_run, tmp_path):
     """The report read a finished run whose bests.jsonl was deleted or cut as if whole."""
     import shutil
 
-    from somite.campaigns.kinds import KINDS
+    from somite.campaigns.kinds import TASK_KINDS
 
     run = tmp_path / "run"
     shutil.copytree(made_run, run)
-    assert KINDS["evolve"].read(run, {})["runs"].config["shape"] == "worm"
+    assert TASK_KINDS["evolve"].read(run, {})["runs"].config["shape"] == "worm"
     (run / "bests.jsonl").write_text("")
     with pytest.raises(SomiteError, match="bests"):
-        KINDS["evolve"].read(run, {})
+        TASK_KINDS["evolve"].read(run, {})
     (run / "bests.jsonl").unlink()
     with pytest.raises(SomiteError, match="bests"):
-        KINDS["evolve"].read(run, {})
+        TASK_KINDS["evolve"].read(run, {})
 
 
 @pytest.mark.parametrize("text", [

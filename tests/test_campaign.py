@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 
 from somite.campaigns.builtin import BUDGETS, builtin
+from somite.campaigns.expansion import expand
 from somite.campaigns.spec import parse
-from somite.campaigns.tasks import expand
 from somite.cli import main
 from somite.experiments.config import resolve
 from somite.experiments.runner import RUN_FILES

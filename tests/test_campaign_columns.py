@@ -16,9 +16,9 @@ from somite.budget import STEPS_PER_CORE_SECOND, about
 from somite.campaigns.builtin import BUDGETS, builtin
 from somite.campaigns.directory import document, prepare
 from somite.campaigns.executor import cores
+from somite.campaigns.expansion import expand
 from somite.campaigns.kinds import estimate
 from somite.campaigns.progress import states
-from somite.campaigns.tasks import expand
 from somite.cli import main
 from somite.experiments.lock import LOCK_NAME
 from somite.experiments.logfile import LOG_COLUMNS, format_row

@@ -13,8 +13,8 @@ import pytest
 
 from somite.campaigns.builtin import builtin
 from somite.campaigns.directory import document, prepare
+from somite.campaigns.expansion import expand
 from somite.campaigns.spec import MAX_NAME, load
-from somite.campaigns.tasks import expand
 from somite.cli import main
 
 

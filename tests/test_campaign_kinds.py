@@ -11,10 +11,10 @@ import pytest
 from somite.campaigns import figures
 from somite.campaigns.builtin import BUDGETS, BUILTINS, RQ1_SEEDS, builtin
 from somite.campaigns.directory import check_runnable, document, prepare, state
-from somite.campaigns.kinds import EXPERIMENT_KINDS, KINDS, estimate
+from somite.campaigns.expansion import expand
+from somite.campaigns.kinds import EXPERIMENT_KINDS, TASK_KINDS, estimate
 from somite.campaigns.kinds.evolve import run_steps
 from somite.campaigns.spec import parse
-from somite.campaigns.tasks import expand
 from somite.cli import main
 from somite.errors import SomiteError
 
@@ -28,7 +28,7 @@ MADE_BY = dict.fromkeys(("evolve", "reassemble", "reoptimize", "discover"), TINY
 
 
 def test_every_kind_has_a_campaign_that_makes_it():
-    assert set(MADE_BY) == set(KINDS)
+    assert set(MADE_BY) == set(TASK_KINDS)
 
 
 def _tasks_of(name: str) -> list[dict]:
@@ -38,7 +38,7 @@ def _tasks_of(name: str) -> list[dict]:
     return [t for t in tasks if t["kind"] == name]
 
 
-@pytest.mark.parametrize("name", list(KINDS))
+@pytest.mark.parametrize("name", list(TASK_KINDS))
 def test_every_kind_is_made_checked_and_estimated_by_its_entry(name):
     """Each kind's tasks pass its check, and its estimate is a whole number of
     robot-control-steps (a run's: its run_steps)."""
@@ -47,23 +47,23 @@ def test_every_kind_is_made_checked_and_estimated_by_its_entry(name):
     for task in tasks:
         steps = estimate(task)
         assert isinstance(steps, int) and steps >= 0
-        if "best.json" in KINDS[name].outputs:
+        if "best.json" in TASK_KINDS[name].outputs:
             assert steps == run_steps(task["options"]) > 0
 
 
-@pytest.mark.parametrize("name", list(KINDS))
+@pytest.mark.parametrize("name", list(TASK_KINDS))
 def test_every_kind_reads_a_missing_folder_as_one_line(tmp_path, name):
     """A finished task whose files are gone is unreadable (the report shows it missing), and
     a queued one has no progress: an error or nothing, never a traceback."""
     task = _tasks_of(name)[0]
     with pytest.raises(SomiteError) as error:
-        KINDS[name].read(tmp_path / "gone", task["options"])
+        TASK_KINDS[name].read(tmp_path / "gone", task["options"])
     assert "\n" not in str(error.value)
     assert state(tmp_path, task)["state"] == "queued"
-    assert KINDS[name].progress(tmp_path / "gone", task["options"], False) == {}
+    assert TASK_KINDS[name].progress(tmp_path / "gone", task["options"], False) == {}
 
 
-@pytest.mark.parametrize("name", list(KINDS))
+@pytest.mark.parametrize("name", list(TASK_KINDS))
 def test_every_kind_has_a_column_in_campaign_list(capsys, monkeypatch, name):
     monkeypatch.setenv("COLUMNS", "200")
     assert main(["campaign", "list"]) == 0
@@ -73,7 +73,7 @@ def test_every_kind_has_a_column_in_campaign_list(capsys, monkeypatch, name):
 
 
 def test_a_kind_without_an_experiment_is_refused_as_one():
-    assert set(EXPERIMENT_KINDS) == {k for k, v in KINDS.items() if v.expand is not None}
+    assert set(EXPERIMENT_KINDS) == {k for k, v in TASK_KINDS.items() if v.expand is not None}
     assert "reoptimize" not in EXPERIMENT_KINDS  # made by a reassemble experiment
     with pytest.raises(SomiteError, match=r"experiments\.a\.kind='reoptimize'"):
         parse({"experiments": {"a": {"kind": "reoptimize"}}}, "x", "test")
@@ -125,10 +125,10 @@ def test_campaign_list_gives_paper_rq1_and_its_cost(capsys, monkeypatch):
             for line in out.splitlines() if line.count("│") > 3}
     assert set(rows) == set(BUILTINS)
     tasks = expand(builtin("paper-rq1"))
-    counts = [str(sum(t["kind"] == k for t in tasks)) for k in KINDS]
+    counts = [str(sum(t["kind"] == k for t in tasks)) for k in TASK_KINDS]
     steps = sum(estimate(t) for t in tasks)
-    assert rows["paper-rq1"][:len(KINDS) + 2] == ["12", *counts, f"{steps:.2e}"]
-    assert counts[list(KINDS).index("evolve")] == "12"
+    assert rows["paper-rq1"][:len(TASK_KINDS) + 2] == ["12", *counts, f"{steps:.2e}"]
+    assert counts[list(TASK_KINDS).index("evolve")] == "12"
 
 
 # -- figures ----------------------------------------------------------------------------------

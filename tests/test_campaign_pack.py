@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 
 from somite.campaigns import directory as campaign_dir
+from somite.campaigns.expansion import expand
 from somite.campaigns.pack import EVERY, LAST
 from somite.campaigns.spec import load
-from somite.campaigns.tasks import expand
 from somite.campaigns.work import run_config, run_task
 from somite.cli import main
 from somite.experiments.history import THINNED

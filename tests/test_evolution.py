@@ -256,7 +256,7 @@ def test_a_short_run_improves(tmp_path):
     assert float(table[-1]["median_size"]) >= float(table[0]["median_size"])
     # The demo's rule: its training figure is what the robot does, within 20% of the mean
     # over 5 fresh noise draws (on one fixed terrain the noise is the only luck).
-    fresh = fresh_noise(ea.best, parse_terrain(config.terrain), config.task().sim, 5, seed=99)
+    fresh = fresh_noise(ea.best, parse_terrain(config.terrain), config.setup.sim, 5, seed=99)
     assert abs(last - fresh.mean()) <= 0.2 * abs(fresh.mean())
 
 

@@ -26,8 +26,8 @@ FILES = ("log.csv", "bests.jsonl", "checkpoint.json", "config.json", "best.json"
 LINED = ("log.csv", "bests.jsonl")
 """The files whose refusal names the line."""
 
-KINDS = ("flip", "digit", "truncate", "delete", "repeat", "swap", "insert", "not UTF-8")
-CASES = [(name, kind, seed) for name in FILES for seed, kind in enumerate(KINDS)]
+DAMAGES = ("flip", "digit", "truncate", "delete", "repeat", "swap", "insert", "not UTF-8")
+CASES = [(name, kind, seed) for name in FILES for seed, kind in enumerate(DAMAGES)]
 
 
 def _files(run: Path) -> dict[str, bytes]:

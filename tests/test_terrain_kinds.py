@@ -1,6 +1,7 @@
-"""Every registered terrain kind (somite.sim.terrain.KINDS), checked the same way: its names read
-back as themselves, build a walled profile, have one spelling, refuse bad numbers in one line
-naming the number, and its distribution draws reproducibly from the generator it is given."""
+"""Every registered terrain kind (somite.sim.terrain.TERRAIN_KINDS), checked the same way: its
+names read back as themselves, build a walled profile, have one spelling, refuse bad numbers in
+one line naming the number, and its distribution draws reproducibly from the generator it is
+given."""
 
 from __future__ import annotations
 
@@ -10,11 +11,11 @@ import pytest
 from somite.errors import SomiteError
 from somite.sim.terrain import (
     DISTRIBUTION_HELP,
-    KINDS,
     LENGTH,
     MAX_NUMBER_CHARS,
     RANDOM,
     TERRAIN_HELP,
+    TERRAIN_KINDS,
     WALL_HEIGHT,
     _fmt,
     parse_name,
@@ -23,7 +24,8 @@ from somite.sim.terrain import (
 from somite.tasks.distributions import parse_distribution
 from somite.tasks.validation import VALIDATION_COUNT, ValidationSet
 
-DRAWN = [kind for kind, entry in KINDS.items() if entry.sample is not None]
+DRAWN = [kind for kind, entry in TERRAIN_KINDS.items() if entry.sample is not None]
+FIELDS = [(kind, field) for kind, entry in TERRAIN_KINDS.items() for field in entry.grammar]
 
 
 def spelled(field, value) -> str:
@@ -40,7 +42,7 @@ def misspelled(field) -> str:
 
 def name_of(kind: str, **given: str) -> str:
     """``kind``'s name from its fields' examples, with the numbers ``given`` by letter."""
-    grammar = KINDS[kind].grammar
+    grammar = TERRAIN_KINDS[kind].grammar
     return "-".join([kind, *(given.get(f.letter, spelled(f, f.example)) for f in grammar)])
 
 
@@ -52,16 +54,16 @@ def refused(text: str, parse=parse_terrain) -> str:
     return message
 
 
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", TERRAIN_KINDS)
 def test_a_name_reads_back_as_itself(kind):
     name = name_of(kind)
     assert parse_terrain(name).name == name
-    assert parse_name(name) == (kind, tuple(f.example for f in KINDS[kind].grammar))
+    assert parse_name(name) == (kind, tuple(f.example for f in TERRAIN_KINDS[kind].grammar))
     assert name.split("-")[0] == kind and "-".join(
-        [kind, *(f.letter for f in KINDS[kind].grammar)]) in TERRAIN_HELP
+        [kind, *(f.letter for f in TERRAIN_KINDS[kind].grammar)]) in TERRAIN_HELP
 
 
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", TERRAIN_KINDS)
 def test_a_kind_builds_a_walled_profile(kind):
     terrain = parse_terrain(name_of(kind))
     assert np.all(np.isfinite(terrain.xs)) and np.all(np.isfinite(terrain.ys))
@@ -72,13 +74,13 @@ def test_a_kind_builds_a_walled_profile(kind):
     assert parse_terrain(name_of(kind)).ys.tolist() == terrain.ys.tolist()  # no randomness
 
 
-@pytest.mark.parametrize("kind, field", [(k, f) for k in KINDS for f in KINDS[k].grammar])
+@pytest.mark.parametrize("kind, field", FIELDS)
 def test_a_number_has_one_spelling(kind, field):
     message = refused(name_of(kind, **{field.letter: misspelled(field)}))
     assert message.endswith(f": write it {name_of(kind)}")
 
 
-@pytest.mark.parametrize("kind, field", [(k, f) for k in KINDS for f in KINDS[k].grammar])
+@pytest.mark.parametrize("kind, field", FIELDS)
 def test_a_bad_number_is_one_line_naming_it(kind, field):
     long = refused(name_of(kind, **{field.letter: "1" * (MAX_NUMBER_CHARS + 1)}))
     assert long.endswith(f"{field.letter} has more than {MAX_NUMBER_CHARS} characters")
@@ -96,7 +98,7 @@ def test_a_bad_number_is_one_line_naming_it(kind, field):
 
 @pytest.mark.parametrize("kind", DRAWN)
 def test_a_distribution_draws_reproducibly_from_its_generator(kind):
-    grammar = KINDS[kind].grammar
+    grammar = TERRAIN_KINDS[kind].grammar
     name = "-".join([kind, *(spelled(f, f.example) for f in grammar[:-1]), RANDOM])
     assert "-".join([kind, *(f.letter for f in grammar[:-1]), RANDOM]) in DISTRIBUTION_HELP
     distribution = parse_distribution(name)
@@ -118,7 +120,7 @@ def test_a_distribution_draws_reproducibly_from_its_generator(kind):
         assert refused(other, parse_distribution).endswith(f": write it {name}")
 
 
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", TERRAIN_KINDS)
 def test_a_fixed_terrain_is_a_distribution_that_draws_nothing(kind):
     distribution = parse_distribution(f" {name_of(kind)} ")
     assert not distribution.is_random and distribution.name == name_of(kind)
@@ -128,7 +130,7 @@ def test_a_fixed_terrain_is_a_distribution_that_draws_nothing(kind):
     assert rng.random() == np.random.default_rng(0).random()
 
 
-@pytest.mark.parametrize("kind", [k for k in KINDS if k not in DRAWN])
+@pytest.mark.parametrize("kind", [k for k in TERRAIN_KINDS if k not in DRAWN])
 def test_a_kind_without_a_draw_has_no_distribution(kind):
     message = refused(f"{kind}-{RANDOM}", parse_distribution)
     assert "unknown terrain distribution" in message
@@ -137,7 +139,7 @@ def test_a_kind_without_a_draw_has_no_distribution(kind):
 def test_an_unknown_kind_names_every_kind():
     message = refused("bumpy-1")
     assert message.endswith(f"unknown terrain; use {TERRAIN_HELP}")
-    assert all(kind in TERRAIN_HELP for kind in KINDS)
+    assert all(kind in TERRAIN_HELP for kind in TERRAIN_KINDS)
 
 
 def test_the_validation_set_is_one_constant_and_never_a_training_draw():

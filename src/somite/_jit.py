@@ -6,11 +6,12 @@ error model (a division by zero gives inf/nan instead of raising inside a kernel
 
 LLVM's SLP vectoriser, which Numba leaves off unless ``NUMBA_SLP_VECTORIZE`` says otherwise, is
 turned on (unless that variable is set): it is what takes the joint passes of several robots
-(:mod:`somite.sim.joint_lanes`) as vector instructions, 2.8x faster than the same arithmetic
-scalar. It never reorders floating-point arithmetic without fastmath, so no result changes.
-It applies to everything Numba compiles in the process; set ``NUMBA_SLP_VECTORIZE=0`` to keep
-Numba's default (somite then runs slower, with the same numbers). Numba's cache does not record
-the setting: kernels compiled under one are loaded under the other until the cache is deleted.
+(:mod:`somite.sim.joint_lanes`) as vector instructions, several times faster than the same
+arithmetic scalar (BENCHMARKS.md, "Robots as vector lanes"). It never reorders floating-point
+arithmetic without fastmath, so no result changes. It applies to everything Numba compiles in
+the process; set ``NUMBA_SLP_VECTORIZE=0`` to keep Numba's default (somite then runs slower,
+with the same numbers). Numba's cache does not record the setting: kernels compiled under one
+are loaded under the other until the cache is deleted.
 """
 
 import functools

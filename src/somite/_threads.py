@@ -3,10 +3,10 @@
 Kernels are compiled without ``parallel=True``: a ``prange`` loop has Numba optimise and emit
 the whole call tree below it again for its gufunc, and its index is unsigned, so every
 robot-level function called from it was compiled a second time for the stepper's signed index
-(the batch kernel's first compile: 217 s with ``prange``, 194 s without, on 2 cores). Every
-kernel releases the GIL (``nogil``), so plain threads calling them run in parallel instead.
-The number of threads is Numba's (``numba.set_num_threads``, ``NUMBA_NUM_THREADS``), as it was
-for the ``prange`` loops.
+(the first compile with and without ``prange``: BENCHMARKS.md, "First compile and the test
+suite"). Every kernel releases the GIL (``nogil``), so plain threads calling them run in
+parallel instead. The number of threads is Numba's (``numba.set_num_threads``,
+``NUMBA_NUM_THREADS``), as it was for the ``prange`` loops.
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ from ..errors import SomiteError, bad
 from ..experiments.lock import LOCK_NAME, read_holder
 from .fields import check_name
 from .figures import FIGURES
-from .kinds import KINDS, needs
+from .kinds import TASK_KINDS, needs
 from .layout import CAMPAIGN, read_done
 from .layout import at as _at
 from .layout import inside as _inside
@@ -110,8 +110,8 @@ def check_document(doc: dict, directory: str | Path | None = None) -> None:
         if not isinstance(task, dict):
             raise bad(_at(where), task, f"a task is an object ({', '.join(TASK_FIELDS)})")
         _typed(task, TASK_FIELDS, where + ".")
-        if task["kind"] not in KINDS:
-            raise bad(_at(where + ".kind"), task["kind"], f"use one of {list(KINDS)}")
+        if task["kind"] not in TASK_KINDS:
+            raise bad(_at(where + ".kind"), task["kind"], f"use one of {list(TASK_KINDS)}")
         if task["experiment"] not in doc["experiments"]:
             raise bad(_at(where + ".experiment"), task["experiment"],
                       "not one of the campaign's experiments")
@@ -191,7 +191,7 @@ def check_runnable(doc: dict) -> None:
     for i, task in enumerate(doc["tasks"]):
         where = f"tasks[{i}].options"
         try:
-            KINDS[task["kind"]].check(where, task, context)
+            TASK_KINDS[task["kind"]].check(where, task, context)
         except SomiteError as error:
             text = str(error)
             if not text.startswith(CAMPAIGN):
@@ -298,7 +298,7 @@ def state(directory: Path, task: dict) -> dict:
         info["state"] = "running"
     else:
         info["state"] = "partial"
-    info.update(KINDS[task["kind"]].progress(folder, options, info["state"] == "done"))
+    info.update(TASK_KINDS[task["kind"]].progress(folder, options, info["state"] == "done"))
     return info
 
 

@@ -31,8 +31,8 @@ A campaign is TOML (or the same structure as a dict, for the built-ins)::
 Each kind's own fields, checks and expansion are its entry in :mod:`.kinds`; the figures an
 experiment feeds are declared in its ``figures`` table (:mod:`.figures`). Run options are
 those of ``somite evolve``'s TOML (:func:`somite.experiments.config.resolve`);
-they are checked when the campaign is expanded into tasks (:mod:`.tasks`), before anything is
-written. A run's shape, seed and start are the campaign's to decide (``shapes``, ``seeds``, the
+they are checked when the campaign is expanded into tasks (:mod:`.expansion`), before anything
+is written. A run's shape, seed and start are the campaign's to decide (``shapes``, ``seeds``, the
 reassembly a re-optimisation starts from): ``shape``, ``seed`` and ``start`` in ``defaults``,
 ``options``, a variant or ``reoptimize`` are refused, not ignored. Names (experiments,
 variants) are at most :data:`MAX_NAME` characters: they become folder names.
@@ -55,7 +55,7 @@ from ..tasks.validation import VALIDATION_COUNT, check_count
 from . import figures as figure_table
 from .fields import CAMPAIGN_DECIDES, MAX_NAME, check_name, run_table
 from .fields import typed as _typed
-from .kinds import EXPERIMENT_KINDS, KINDS
+from .kinds import EXPERIMENT_KINDS, TASK_KINDS
 
 COMMON = frozenset({"kind", "title", "paper", "figures"})
 """The fields of every experiment's table; each kind adds its own (:mod:`.kinds`)."""
@@ -140,7 +140,7 @@ def _experiment(name: str, table, earlier: dict[str, Experiment], base: Path) ->
     kind = _typed(table, "kind", str, None, where)
     if kind not in EXPERIMENT_KINDS:
         raise bad(where + "kind", kind, f"use one of {list(EXPERIMENT_KINDS)}")
-    known = COMMON | KINDS[kind].fields
+    known = COMMON | TASK_KINDS[kind].fields
     for key in table:
         if key not in known:
             raise bad(where + key, table[key], f"unknown field of a {kind} experiment "
@@ -148,7 +148,7 @@ def _experiment(name: str, table, earlier: dict[str, Experiment], base: Path) ->
     figures = figure_table.parse(table.get("figures", {}), where + "figures", kind)
     return Experiment(name, kind, _text(table, "title", where), _text(table, "paper", where),
                       figures,
-                      KINDS[kind].parse(table, where, earlier, base))
+                      TASK_KINDS[kind].parse(table, where, earlier, base))
 
 
 __all__ = ["COMMON", "Campaign", "Experiment", "MAX_NAME", "check_name", "load", "parse"]

@@ -18,7 +18,7 @@ import time
 from pathlib import Path
 
 from .._io import remove_temporary, write_atomic
-from .kinds import KINDS
+from .kinds import TASK_KINDS
 from .kinds.common import run_config
 from .layout import DONE, read_done
 
@@ -39,7 +39,7 @@ def run_task(directory: str, task: dict, threads: int = 1, *needed) -> dict:
     remove_temporary(out)
     _threads(threads)
     start = time.perf_counter()
-    steps = KINDS[task["kind"]].run(Path(directory), out, task["options"])
+    steps = TASK_KINDS[task["kind"]].run(Path(directory), out, task["options"])
     record = {"task": task["id"], "elapsed_s": round(time.perf_counter() - start, 3),
               "robot_control_steps": int(steps),
               "finished": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}

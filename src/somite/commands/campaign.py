@@ -114,7 +114,7 @@ def _run(args: argparse.Namespace) -> int:
 
     from ..campaigns import directory as campaign_dir
     from ..campaigns.executor import check_scheduler, connect, execute, sizing
-    from ..campaigns.tasks import expand
+    from ..campaigns.expansion import expand
     from ..experiments.lock import RunLock
 
     # Bad sizes and addresses are refused before anything is written.
@@ -190,19 +190,19 @@ def _list(args: argparse.Namespace) -> int:
     from ..budget import STEPS_PER_CORE_SECOND, about, hours
     from ..campaigns.builtin import BUILTINS, builtin
     from ..campaigns.executor import cores
-    from ..campaigns.kinds import KINDS, estimate
-    from ..campaigns.tasks import expand
+    from ..campaigns.expansion import expand
+    from ..campaigns.kinds import TASK_KINDS, estimate
 
     n = cores()
     rows = []
     for name in BUILTINS:
         tasks = expand(builtin(name))
-        kinds = [sum(t["kind"] == k for t in tasks) for k in KINDS]
+        kinds = [sum(t["kind"] == k for t in tasks) for k in TASK_KINDS]
         steps = sum(estimate(t) for t in tasks)
         rows.append([name, str(len(tasks)), *map(str, kinds), f"{steps:.2e}",
                      about(hours(steps, cores=n) * 3600)])
     console = Console()
-    console.print(_fit(console, lambda compact: _list_table(rows, list(KINDS), n, compact)))
+    console.print(_fit(console, lambda compact: _list_table(rows, list(TASK_KINDS), n, compact)))
     # Through rich, so that the note wraps at the terminal's width too.
     console.print(f"time: the simulation alone (not Dask's start or Numba's first compilation) "
                   f"at {STEPS_PER_CORE_SECOND:,} robot-control-steps/s a core (BENCHMARKS.md, "

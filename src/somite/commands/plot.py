@@ -7,7 +7,7 @@ import json
 
 from ..analysis.stats import smallest_p
 from ..viz.output import check_output
-from ..viz.plots import KINDS, PLOT_FORMATS, plot_runs, stats_path
+from ..viz.plots import PLOT_FORMATS, PLOT_KINDS, plot_runs, stats_path
 from .common import warn
 
 HELP = "Plot best v_x and |G| over generations and final-v_x boxplots with Mann-Whitney p."
@@ -19,7 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "statistics go beside it as fig.stats.json")
     parser.add_argument("--group-by", default="shape",
                         help="config.json key(s), comma-separated: shape, omega, weights_only, ...")
-    parser.add_argument("--kind", default="both", choices=KINDS,
+    parser.add_argument("--kind", default="both", choices=PLOT_KINDS,
                         help="learning curves, box plots of the final bests, or both")
 
 

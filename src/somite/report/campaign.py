@@ -16,7 +16,7 @@ from pathlib import Path, PurePosixPath
 from ..campaigns import figures as figure_table
 from ..campaigns.builtin import DECLARED_FIGURES
 from ..campaigns.directory import read
-from ..campaigns.kinds import KINDS
+from ..campaigns.kinds import TASK_KINDS
 from ..campaigns.layout import read_done
 from ..errors import bad
 
@@ -125,8 +125,8 @@ def _task(root: Path, item) -> Task:
     for key in ("id", "experiment", "kind", "path"):
         if not isinstance(item.get(key), str) or not item[key]:
             raise bad(f"campaign.tasks.{key}", item.get(key), "must be a non-empty string")
-    if item["kind"] not in KINDS:
-        raise bad("campaign.tasks.kind", item["kind"], f"use one of {list(KINDS)}")
+    if item["kind"] not in TASK_KINDS:
+        raise bad("campaign.tasks.kind", item["kind"], f"use one of {list(TASK_KINDS)}")
     relative = PurePosixPath(item["path"])
     if relative.is_absolute() or ".." in relative.parts:
         raise bad("campaign.tasks.path", item["path"], "must be relative, inside the campaign")
@@ -146,4 +146,4 @@ def task_row(task: Task, done: bool) -> dict:
     return {"task": task.id, "experiment": task.experiment, "done": done}
 
 
-__all__ = ["CampaignFolder", "KINDS", "Task", "read_campaign", "task_row"]
+__all__ = ["CampaignFolder", "Task", "read_campaign", "task_row"]

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field, fields
 
 from ..analysis.stats import RunLog
 from ..brain.genome import Genome
-from ..campaigns.kinds import KINDS
+from ..campaigns.kinds import TASK_KINDS
 from ..errors import SomiteError
 from ..sim.body import PRESET_SHAPES, Shape
 from ..sim.config import SimConfig
@@ -73,7 +73,7 @@ def load(campaign: CampaignFolder) -> Loaded:
         if not task.done:
             continue
         try:
-            loaded.add(task.id, KINDS[task.kind].read(task.folder, task.options))
+            loaded.add(task.id, TASK_KINDS[task.kind].read(task.folder, task.options))
         except SomiteError as error:
             loaded.broken[task.id] = str(error)
     return loaded

@@ -20,7 +20,7 @@ another spelling. The numbers of a name:
 
 The same grammar names the training distributions (:mod:`somite.tasks.distributions`): the last
 number replaced by ``rnd`` (``hilly-1-10-rnd``, ``uphill-rnd``) is drawn afresh per evaluation.
-Every kind, with its numbers, its builder and its draw, is one entry of :data:`KINDS`; the
+Every kind, with its numbers, its builder and its draw, is one entry of :data:`TERRAIN_KINDS`; the
 parsers and the help texts are written from it.
 """
 
@@ -223,7 +223,7 @@ DEG = Field("DEG", f"0 <= DEG < {MAX_SLOPE:g} degrees",
             ((lambda d: d < MAX_SLOPE, f"slopes must be under {MAX_SLOPE:g} degrees (DEG)"),),
             5.0)
 
-KINDS: dict[str, TerrainKind] = {
+TERRAIN_KINDS: dict[str, TerrainKind] = {
     "flat": TerrainKind((), flat),
     "hilly": TerrainKind((H, W, SEED), hilly, _training_seeds),
     "steppy": TerrainKind((H, W, SEED), steppy, _training_seeds),
@@ -239,19 +239,19 @@ def _or(words: list[str]) -> str:
 
 
 def _help() -> tuple[str, str]:
-    bounds = dict.fromkeys(f.bounds for kind in KINDS.values() for f in kind.grammar)
+    bounds = dict.fromkeys(f.bounds for kind in TERRAIN_KINDS.values() for f in kind.grammar)
     fixed = _or(["-".join([name, *(f.letter for f in kind.grammar)])
-                 for name, kind in KINDS.items()])
+                 for name, kind in TERRAIN_KINDS.items()])
     fixed += (f" ({', '.join(bounds)}; each number written as the shortest decimal: 1 "
               "not 1.0, 10000 not 010000)")
     drawn = ", ".join("-".join([name, *(f.letter for f in kind.grammar[:-1]), RANDOM])
-                      for name, kind in KINDS.items() if kind.sample is not None)
+                      for name, kind in TERRAIN_KINDS.items() if kind.sample is not None)
     return fixed, f"{drawn}, or one fixed terrain: {fixed}"
 
 
 TERRAIN_HELP, DISTRIBUTION_HELP = _help()
 """What a terrain name (``--terrain`` of simulate, show) and a training distribution
-(``--terrain`` of evolve) may be, written from :data:`KINDS`."""
+(``--terrain`` of evolve) may be, written from :data:`TERRAIN_KINDS`."""
 
 _NUMBER = {False: r"([0-9]+(?:\.[0-9]+)?)", True: r"([0-9]+)"}
 
@@ -261,8 +261,8 @@ def _pattern(name: str, fields: tuple[Field, ...], tail: tuple[str, ...] = ()) -
                                       *tail]) + "$")
 
 
-_FIXED = {name: _pattern(name, kind.grammar) for name, kind in KINDS.items()}
-_DRAWN = {name: _pattern(name, kind.grammar[:-1], (RANDOM,)) for name, kind in KINDS.items()
+_FIXED = {name: _pattern(name, kind.grammar) for name, kind in TERRAIN_KINDS.items()}
+_DRAWN = {name: _pattern(name, kind.grammar[:-1], (RANDOM,)) for name, kind in TERRAIN_KINDS.items()
           if kind.sample is not None}
 
 
@@ -301,7 +301,7 @@ def parse_name(text: str, drawn: bool = False) -> tuple[str, tuple]:
     for kind, pattern in (_DRAWN if drawn else _FIXED).items():
         match = pattern.match(name)
         if match:
-            fields = KINDS[kind].grammar
+            fields = TERRAIN_KINDS[kind].grammar
             values, spelled = _numbers(text, fields[:-1] if drawn else fields, match.groups())
             _canonical(text, name, [kind, *spelled, *([RANDOM] if drawn else [])])
             return kind, tuple(values)
@@ -315,12 +315,11 @@ def parse_terrain(text: str) -> Terrain:
     one-line error for anything else, naming the one spelling of a terrain spelled
     another way."""
     kind, values = parse_name(text)
-    return KINDS[kind].build(*values)
+    return TERRAIN_KINDS[kind].build(*values)
 
 
 @functools.lru_cache(maxsize=16384)
 def drawn_terrain(kind: str, values: tuple) -> Terrain:
     """The terrain of kind ``kind`` with the numbers ``values``, built once: a training run
-    draws from a few thousand terrains many times over (a hilly one takes ~1 ms to build, a
-    steppy one more)."""
-    return KINDS[kind].build(*values)
+    draws from a few thousand terrains many times over, and building one is not free."""
+    return TERRAIN_KINDS[kind].build(*values)

@@ -10,9 +10,9 @@
   does not meet.
 
 Validation terrains (``hilly-1-10-10000`` on) lie outside every training distribution. The
-names are the terrain names' grammar (:data:`somite.sim.terrain.KINDS`, where each kind's draw
-is): one spelling each, ``hilly-1-10-rnd`` and not ``hilly-1.0-10-rnd``, so that a fixed
-terrain's name is its terrain's one name too.
+names are the terrain names' grammar (:data:`somite.sim.terrain.TERRAIN_KINDS`, where each
+kind's draw is): one spelling each, ``hilly-1-10-rnd`` and not ``hilly-1.0-10-rnd``, so that a
+fixed terrain's name is its terrain's one name too.
 """
 
 from __future__ import annotations
@@ -23,9 +23,9 @@ import numpy as np
 
 from ..sim.terrain import (
     DISTRIBUTION_HELP,
-    KINDS,
     N_TRAINING_SEEDS,
     RANDOM,
+    TERRAIN_KINDS,
     Terrain,
     drawn_terrain,
     parse_name,
@@ -46,7 +46,7 @@ class TerrainDistribution:
         Its one name, e.g. ``hilly-1-10-rnd`` or ``flat``.
     kind : str
         ``fixed``, or the terrain kind it draws (``hilly``, ``steppy``, ``uphill``,
-        ``downhill``: :data:`somite.sim.terrain.KINDS`).
+        ``downhill``: :data:`somite.sim.terrain.TERRAIN_KINDS`).
     values : tuple
         The numbers of its name but the drawn one (H and W for ``hilly-H-W-rnd``).
     terrain : Terrain or None
@@ -67,7 +67,7 @@ class TerrainDistribution:
         if not self.is_random:
             return [self.terrain] * n
         return [drawn_terrain(self.kind, (*self.values, value))
-                for value in KINDS[self.kind].sample(rng, n)]
+                for value in TERRAIN_KINDS[self.kind].sample(rng, n)]
 
 
 def parse_distribution(text: str) -> TerrainDistribution:

@@ -37,7 +37,7 @@ from ..errors import bad
 from .output import atomic_output, check_output
 
 PLOT_FORMATS = (".png", ".svg", ".pdf")
-KINDS = ("curves", "box", "both")
+PLOT_KINDS = ("curves", "box", "both")
 COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2",
            "#7f7f7f", "#bcbd22", "#17becf")
 
@@ -75,8 +75,8 @@ def plot_runs(
     """
     out_path = check_output(out_path, PLOT_FORMATS)
     check_output_file(stats_path(out_path))  # read-only or too long a name: refused now
-    if kind not in KINDS:
-        raise bad("kind", kind, f"use one of {list(KINDS)}")
+    if kind not in PLOT_KINDS:
+        raise bad("kind", kind, f"use one of {list(PLOT_KINDS)}")
     if not run_dirs:
         raise bad("runs", "", "give at least one run directory")
     groups = group_runs([load_run(path) for path in run_dirs], group_by)

@@ -37,7 +37,7 @@ class TaskKind:
     fields: frozenset[str] = frozenset()
 
 
-KINDS: dict[str, TaskKind] = {
+TASK_KINDS: dict[str, TaskKind] = {
     "evolve": TaskKind(evolve.run, evolve.check, evolve.read, evolve.progress, evolve.estimate,
                        evolve.OUTPUTS, evolve.expand, evolve.parse, evolve.FIELDS),
     "reassemble": TaskKind(reassemble.run, reassemble.check, reassemble.read,
@@ -51,25 +51,25 @@ KINDS: dict[str, TaskKind] = {
 }
 """Every task kind, in the order tables list them."""
 
-EXPERIMENT_KINDS = tuple(name for name, kind in KINDS.items() if kind.expand is not None)
+EXPERIMENT_KINDS = tuple(name for name, kind in TASK_KINDS.items() if kind.expand is not None)
 """The kinds a campaign file's experiment may have."""
 
 
 def kind(name: str, field: str) -> TaskKind:
     """The kind ``name``, or a one-line error naming ``field``."""
-    if name not in KINDS:
-        raise bad(field, name, f"use one of {list(KINDS)}")
-    return KINDS[name]
+    if name not in TASK_KINDS:
+        raise bad(field, name, f"use one of {list(TASK_KINDS)}")
+    return TASK_KINDS[name]
 
 
 def needs(tasks: list[dict]) -> Needs:
     """What the checks of ``tasks``' options ask of the tasks they read from."""
-    return Needs({t["id"]: t for t in tasks}, {k: v.outputs for k, v in KINDS.items()})
+    return Needs({t["id"]: t for t in tasks}, {k: v.outputs for k, v in TASK_KINDS.items()})
 
 
 def estimate(task: dict) -> int:
     """Robot-control-steps ``task`` will take."""
-    return KINDS[task["kind"]].estimate(task["options"])
+    return TASK_KINDS[task["kind"]].estimate(task["options"])
 
 
-__all__ = ["EXPERIMENT_KINDS", "KINDS", "TaskKind", "estimate", "kind", "needs"]
+__all__ = ["EXPERIMENT_KINDS", "TASK_KINDS", "TaskKind", "estimate", "kind", "needs"]

@@ -19,7 +19,7 @@ tasks of one id: the campaign is refused).
 from __future__ import annotations
 
 from ..errors import bad
-from .kinds import KINDS
+from .kinds import TASK_KINDS
 from .spec import Campaign
 
 
@@ -30,7 +30,7 @@ def expand(campaign: Campaign) -> list[dict]:
     """experiment -> what its expansion gives the experiments after it (an evolve
     experiment's grid of runs: variant -> shape -> [(seed, task)])"""
     for exp in campaign.experiments:
-        made, grids[exp.name] = KINDS[exp.kind].expand(campaign, exp, grids)
+        made, grids[exp.name] = TASK_KINDS[exp.kind].expand(campaign, exp, grids)
         tasks += made
     _unique(tasks)
     return tasks

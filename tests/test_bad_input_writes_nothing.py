@@ -1,6 +1,7 @@
-"""A cheap sample of the round-3 probe re-run with new variations (issue 23): each bad or
-extreme input, of every class the probe tried, ends in one line and exit 2 before any work,
-writes nothing (nothing outside its target in particular) and gives no traceback."""
+"""A cheap sample of the hostile-input probe (audits/probe.py, issue 23) re-run with new
+variations: each bad or extreme input, of every class the probe tried, ends in one line and
+exit 2 before any work, writes nothing (nothing outside its target in particular) and gives no
+traceback."""
 
 from __future__ import annotations
 

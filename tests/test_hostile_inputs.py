@@ -1,5 +1,5 @@
-"""Hostile input, round 3 (issue 23): one spelling per terrain name, numbers too long to read,
-strict JSON, and a standard output that is closed, full or a closed pipe."""
+"""Hostile input (issue 23): one spelling per terrain name, numbers too long to read, strict
+JSON, and a standard output that is closed, full or a closed pipe."""
 
 from __future__ import annotations
 

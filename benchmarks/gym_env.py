@@ -20,24 +20,18 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import time
 
 import gymnasium as gym
 import numba
 import numpy as np
 
 import somite  # noqa: F401  (registers somite/Locomotion-v0)
+from somite.bench import timed
 from somite.brain.controllers import Table, Zero
 from somite.tasks.locomotion import simulate_batch
 from somite.tasks.stepper import Episode
 
 ENV_ID = "somite/Locomotion-v0"
-
-
-def _timed(work) -> float:
-    start = time.perf_counter()
-    work()
-    return time.perf_counter() - start
 
 
 def _best(works: dict, repeats: int) -> dict:
@@ -49,7 +43,7 @@ def _best(works: dict, repeats: int) -> dict:
     times = {name: [] for name in works}
     for _ in range(repeats):
         for name, work in works.items():
-            times[name].append(_timed(work))
+            times[name].append(timed(work))
     return {name: min(t) for name, t in times.items()}
 
 

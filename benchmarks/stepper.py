@@ -15,13 +15,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 
 import numba
 import numpy as np
 
 from somite._jit import on_disk
-from somite.bench import random_graph
+from somite.bench import random_graph, timed
 from somite.sim.body import Body
 from somite.sim.config import SimConfig
 from somite.sim.system import compile_system
@@ -29,12 +28,6 @@ from somite.sim.terrain import parse_terrain
 from somite.tasks.lanes import run_group
 from somite.tasks.locomotion import compile_controllers, run
 from somite.tasks.stepper import KERNELS, Episode
-
-
-def _timed(work) -> float:
-    start = time.perf_counter()
-    work()
-    return time.perf_counter() - start
 
 
 def main() -> dict:
@@ -65,7 +58,7 @@ def main() -> dict:
 
     cached = {"compiled_loop": on_disk(run_group),
               "stepper": all(on_disk(kernel) for kernel in KERNELS)}
-    first = {"compiled_loop": _timed(compiled), "stepper": _timed(stepped)}
+    first = {"compiled_loop": timed(compiled), "stepper": timed(stepped)}
     n_steps = config.n_steps
     result = {
         "robots": args.robots,
@@ -83,10 +76,10 @@ def main() -> dict:
     for threads in sorted({1, everyone}):
         numba.set_num_threads(threads)
         best = {
-            "compiled_loop": min(_timed(compiled) for _ in range(args.repeats)),
-            "stepper": min(_timed(stepped) for _ in range(args.repeats)),
+            "compiled_loop": min(timed(compiled) for _ in range(args.repeats)),
+            "stepper": min(timed(stepped) for _ in range(args.repeats)),
             # A different workload (constant random poses): not comparable with the others.
-            "stepper_given_actuation": min(_timed(lambda: stepped(actuation))
+            "stepper_given_actuation": min(timed(lambda: stepped(actuation))
                                            for _ in range(args.repeats)),
         }
         result["by_threads"][threads] = {

@@ -1,8 +1,11 @@
-"""Timing of the episode kernel on the paper's workload (``somite bench``).
+"""Timing: the one home of somite's timing code.
 
-A population of random graph controllers of about 200 nodes + edges, on the paper's bodies with
-the paper's sensors, each robot on its own hilly terrain, 30 s episodes. Compilation (or loading
-the compiled kernel from Numba's cache) is timed apart, on a throw-away one-step run.
+The episode kernel on the paper's workload (``somite bench``, whose command line is
+:mod:`somite.commands.bench`): a population of random graph controllers of about 200 nodes +
+edges, on the paper's bodies with the paper's sensors, each robot on its own hilly terrain, 30 s
+episodes. Compilation (or loading the compiled kernel from Numba's cache) is timed apart, on a
+throw-away one-step run. The scripts of ``benchmarks/`` time their own workloads with the same
+pieces (:func:`timed`, :func:`random_graph`, :func:`bench_population`) and print JSON.
 """
 
 from __future__ import annotations
@@ -22,6 +25,13 @@ from .sim.system import compile_system
 from .sim.terrain import hilly
 from .tasks.lanes import run_group
 from .tasks.locomotion import compile_controllers, run
+
+
+def timed(work) -> float:
+    """Seconds of wall time ``work()`` takes."""
+    start = time.perf_counter()
+    work()
+    return time.perf_counter() - start
 
 
 def random_graph(body: Body, size: int, rng: np.random.Generator) -> GraphArrays:
@@ -96,9 +106,8 @@ def compile_seconds(backend: str = "cpu") -> dict:
     rng = np.random.default_rng(0)
     system = compile_system([body], [hilly(1.0, 10.0, 0)])
     controllers = compile_controllers([random_graph(body, 200, rng)], [body.shape.n_voxels])
-    start = time.perf_counter()
-    run(system, controllers, SimConfig(duration=1 / 60), [0], backend=backend)
-    elapsed = time.perf_counter() - start
+    elapsed = timed(lambda: run(system, controllers, SimConfig(duration=1 / 60), [0],
+                                backend=backend))
     if backend != "cpu":
         return {"compile_seconds": round(elapsed, 3)}
     stats = run_group.stats

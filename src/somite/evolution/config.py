@@ -50,7 +50,7 @@ class GAConfig:
     By default parents are evaluated again every generation, as in the authors' code, which
     produced the paper's figures: with Algorithm 1 as printed (``reevaluate_parents=False``)
     a parent keeps its one lucky evaluation, and robots evolved that way walked less than half as
-    fast on unseen terrains (reports/preset-variants.md).
+    fast on unseen terrains (audits/preset-variants.md).
 
     Attributes
     ----------

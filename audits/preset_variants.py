@@ -6,9 +6,9 @@ population 48, otherwise the paper's settings. Each run's final best is re-run o
 terrains that no run trained on (training seeds are in [0, 10000), the fixed validation
 terrains are 10000..10009; these are 20000..20029), with the simulator preset the run used.
 
-    python reports/preset_variants.py run      # evolve every missing run (restartable)
-    python reports/preset_variants.py analyse  # JSON on stdout (and reports/preset-variants.json)
-    python reports/preset_variants.py table    # the markdown tables of that JSON
+    python audits/preset_variants.py run      # evolve every missing run (restartable)
+    python audits/preset_variants.py analyse  # JSON on stdout (and audits/preset-variants.json)
+    python audits/preset_variants.py table    # the markdown tables of that JSON
 
 Run directories live in runs/preset-variants (ignored by git; $PRESET_VARIANTS_RUNS
 overrides); a finished run is skipped, an interrupted one resumed from its checkpoint.
@@ -214,7 +214,7 @@ FACTORS = {
 
 
 def markdown(report: dict) -> str:
-    """The tables of reports/preset-variants.md from :func:`analyse`'s report."""
+    """The tables of audits/preset-variants.md from :func:`analyse`'s report."""
     def cell(stats: dict) -> str:
         return " / ".join(_p(stats[k], 2) for k in ("mean", "median", "sd"))
 

@@ -3,9 +3,9 @@
 Evolves the worm and the biped with both biases over several seeds at a small budget, cuts each
 final best along the paper's partition and compares the cut ratios eta (the share of edges, and
 of |w| + |b|, that cross modules) with a one-sided Mann-Whitney U test. Writes
-reports/omega-cuts.json and prints a Markdown table.
+audits/omega-cuts.json and prints a Markdown table.
 
-Usage: python reports/omega_cuts.py [--seeds 5] [--generations 150] [--population 24]
+Usage: python audits/omega_cuts.py [--seeds 5] [--generations 150] [--population 24]
 """
 
 from __future__ import annotations

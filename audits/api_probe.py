@@ -11,7 +11,7 @@ subprocess and must end with exit code 2 (130 for the signals) and one line on s
 
 Prints a JSON object: the counts per class and, for each case not handled, what happened.
 
-Usage: python benchmarks/api_probe.py [--timeout 60] [--only WORD]
+Usage: python audits/api_probe.py [--timeout 60] [--only WORD]
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ changed anywhere in the scratch folder) or, for input that is valid but extreme,
 lines, traceback or not, the files it wrote, changed or deleted, and whether it passed) and,
 with ``--markdown FILE``, writes a Markdown table.
 
-Usage: python reports/probe.py [--markdown reports/probe.md] [--only WORD]
+Usage: python audits/probe.py [--markdown audits/probe.md] [--only WORD]
 """
 
 from __future__ import annotations
@@ -484,7 +484,7 @@ def markdown(summary: dict) -> str:
     lines = [
         "# The probe of issue 10, re-run",
         "",
-        "`python reports/probe.py --markdown reports/probe.md` (each case a subprocess of "
+        "`python audits/probe.py --markdown audits/probe.md` (each case a subprocess of "
         "`python -m somite.cli`, timeout 120 s, in a scratch folder with a small run, a genome, "
         "a partition and a module library). Expected: *refused* = exit 2, one line on stderr, "
         "no traceback, nothing written, changed or deleted in the scratch folder; *answered* = "

@@ -8,7 +8,9 @@ the fields of :class:`somite.report.load.Loaded`), how far it has got (``progres
 it will cost (``estimate``, robot-control-steps). A kind without ``expand`` is made by
 another kind's experiment (a re-optimisation by a reassembly's). The campaign file, the
 task list, ``campaign.json``'s checks, the workers, the progress view, ``campaign list`` and
-the report all read this registry: a new kind is an entry here (and its module).
+the report all read this registry: a new kind is an entry here (and its module). What a kind of
+experiment adds to the report (its figures, tables and text) is its section there, listed by
+kind in ``somite/report/sections.py`` (docs/architecture.md, "Where a new thing goes").
 """
 
 from __future__ import annotations

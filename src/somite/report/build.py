@@ -4,7 +4,8 @@ REPORT holds ``index.md`` (and ``index.html``), ``report.json`` (every number of
 ``figures/`` (PNG and SVG, time-lapse strips as PNG) and ``cache/`` (the validation re-runs and
 the strips already drawn, so that a second report on the same campaign is quick). The report
 is written all or nothing (:mod:`.staging`): a failure leaves the old one as it was. A task
-that is not finished, or cannot be read, is listed as missing.
+that is not finished, or cannot be read, is listed as missing. Each kind of experiment adds its
+own entries, figures and text through its section (:mod:`.sections`), in the kinds' order.
 """
 
 from __future__ import annotations

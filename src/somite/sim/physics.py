@@ -27,10 +27,19 @@ simulator"; BENCHMARKS.md, "Fidelity".
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
 
 from .._jit import njit, uncounted
+from . import step as order
 from .config import BLOCK_SIDE, VOXEL_SIDE
+from .step import implements
+from .step import step as physics_step
 from .trig import sincos
+
+if TYPE_CHECKING:
+    from .robot import Ground, Robot, Scratch
 
 HALF_BLOCK = BLOCK_SIDE / 2
 BLOCK_REACH = HALF_BLOCK * math.sqrt(2.0)
@@ -1085,41 +1094,80 @@ def positions(robot, scratch, pos, vel, params):
         scratch.cos[p], scratch.sin[p] = sincos(pos[p, 2])
 
 
+class Alone(NamedTuple):
+    """One robot as a solver of :func:`somite.sim.step.step`: its arrays, as every function
+    here takes them (``pos``, ``vel``: its bodies' state (P, 3))."""
+
+    robot: Robot
+    ground: Ground
+    scratch: Scratch
+    pos: np.ndarray
+    vel: np.ndarray
+
+
+@implements(order.begin, Alone, on_device=True)
 @njit(inline="always")
-def step(robot, ground, scratch, pos, vel, params):
-    """One physics step of dt = ``params.dt`` (dyn4j's order; module docstring)."""
-    velocities(robot, vel, params)
-    start_contacts(robot, scratch, pos, vel, params)
-    start_springs(robot, scratch, pos, vel, params)
-    start_ropes(robot, scratch, pos, vel)
-    start_welds(robot, scratch, vel)
-    for _ in range(params.velocity_iterations):
-        solve_springs(robot, scratch, vel)
-        solve_ropes(robot, scratch, vel)
-        solve_welds(robot, scratch, vel)
-        solve_contacts(robot, scratch, vel)
-    positions(robot, scratch, pos, vel, params)
-    for _ in range(params.position_iterations):
-        contacts_held = fix_contacts(robot, scratch, pos, scratch.cos, scratch.sin)
-        ropes_held = fix_ropes(robot, pos)
-        welds_held = fix_welds(robot, pos, scratch.cos, scratch.sin)
-        if contacts_held and ropes_held and welds_held:
-            break
-    find_contacts(robot, ground, scratch, pos, params)
+def _begin(solver, params):
+    velocities(solver.robot, solver.vel, params)
+    start_contacts(solver.robot, solver.scratch, solver.pos, solver.vel, params)
+
+
+@implements(order.start_joints, Alone, on_device=True)
+@njit(inline="always")
+def _start_joints(solver, params):
+    start_springs(solver.robot, solver.scratch, solver.pos, solver.vel, params)
+    start_ropes(solver.robot, solver.scratch, solver.pos, solver.vel)
+    start_welds(solver.robot, solver.scratch, solver.vel)
+
+
+@implements(order.solve_joints, Alone, on_device=True)
+@njit(inline="always")
+def _solve_joints(solver, params):
+    solve_springs(solver.robot, solver.scratch, solver.vel)
+    solve_ropes(solver.robot, solver.scratch, solver.vel)
+    solve_welds(solver.robot, solver.scratch, solver.vel)
+
+
+@implements(order.solve_contacts, Alone, on_device=True)
+@njit(inline="always")
+def _solve_contacts(solver, params):
+    solve_contacts(solver.robot, solver.scratch, solver.vel)
+
+
+@implements(order.move, Alone, on_device=True)
+@njit(inline="always")
+def _move(solver, params):
+    positions(solver.robot, solver.scratch, solver.pos, solver.vel, params)
+
+
+@implements(order.fix_positions, Alone, on_device=True)
+@njit(inline="always")
+def _fix_positions(solver, params):
+    contacts_held = fix_contacts(solver.robot, solver.scratch, solver.pos, solver.scratch.cos, solver.scratch.sin)
+    ropes_held = fix_ropes(solver.robot, solver.pos)
+    welds_held = fix_welds(solver.robot, solver.pos, solver.scratch.cos, solver.scratch.sin)
+    return contacts_held and ropes_held and welds_held
+
+
+@implements(order.end, Alone, on_device=True)
+@njit(inline="always")
+def _end(solver, params):
+    find_contacts(solver.robot, solver.ground, solver.scratch, solver.pos, params)
 
 
 @uncounted
 def advance(robot, ground, scratch, pos, vel, params, substeps):
-    """One control step of physics: ``substeps`` steps under the rest lengths of
-    ``scratch.rest``, from any state (the bodies' rotations are taken afresh).
+    """One control step of physics: ``substeps`` steps (:func:`somite.sim.step.step`) under the
+    rest lengths of ``scratch.rest``, from any state (the bodies' rotations are taken afresh).
 
     Compiled without Numba's reference counting (``_jit.uncounted``: nothing here allocates), as
     every field read from the per-robot tuples would otherwise cost an atomic increment and
     decrement on each step.
     """
     turn(robot.n_points, pos, scratch.cos, scratch.sin)
+    alone = Alone(robot, ground, scratch, pos, vel)
     for _ in range(substeps):
-        step(robot, ground, scratch, pos, vel, params)
+        physics_step(alone, params)
 
 
 @njit(inline="always")

@@ -1143,7 +1143,8 @@ def _move(solver, params):
 @implements(order.fix_positions, Alone, on_device=True)
 @njit(inline="always")
 def _fix_positions(solver, params):
-    contacts_held = fix_contacts(solver.robot, solver.scratch, solver.pos, solver.scratch.cos, solver.scratch.sin)
+    contacts_held = fix_contacts(solver.robot, solver.scratch, solver.pos, solver.scratch.cos,
+                                 solver.scratch.sin)
     ropes_held = fix_ropes(solver.robot, solver.pos)
     welds_held = fix_welds(solver.robot, solver.pos, solver.scratch.cos, solver.scratch.sin)
     return contacts_held and ropes_held and welds_held

@@ -10,7 +10,7 @@ robot's :class:`RobotState`; the CPU kernel (:mod:`somite.tasks.lanes`, which sp
 step into :func:`before_physics`, the physics and :func:`after_physics` to advance a group of
 robots together), the CUDA kernel (:mod:`somite.tasks.cuda_batch`) and the Python stepper
 (:class:`somite.tasks.stepper.Episode`) all run these functions. The state's arrays
-(:class:`Work`) are described once, in :data:`WORK_FIELDS`.
+(:class:`Work`) are described once, in :data:`WORK_PARTS`.
 """
 
 from __future__ import annotations
@@ -65,47 +65,80 @@ SETTLE_STEPS = 120
 T_FASTEST, T_SMALLEST, T_NON_FINITE, T_X_LO, T_X_HI = range(5)
 N_TALLY = 5
 
-WORK_FIELDS = {
-    # robot_in's derived arrays
-    "inv_mass": (("P",), np.float64),
-    "inv_inertia": (("P",), np.float64),
-    # the fields of Scratch, in its order
-    "rest": (("S",), np.float64),
-    "cos": (("P",), np.float64),
-    "sin": (("P",), np.float64),
-    "spring": (("S", N_SPRING_COLUMNS), np.float64),
-    "rope": (("Y", N_ROPE_COLUMNS), np.float64),
-    "weld": (("W", N_WELD_COLUMNS), np.float64),
-    "contacts": (("C", N_CONTACT_COLUMNS), np.float64),
-    "previous": (("C", N_CONTACT_COLUMNS), np.float64),
-    "counts": ((2,), np.int64),
-    "polygon": ((2, 4, 4), np.float64),
-    "clipped": ((2, 4), np.float64),
-    "contact": (("P",), np.bool_),
-    "segment": (("P+1",), np.int64),
-    # the episode's own state
-    "body_pos": (("P", 3), np.float64),
-    "body_vel": (("P", 3), np.float64),
-    "pos": (("P", 2), np.float64),
-    "vel": (("P", 2), np.float64),
-    "voxels": (("V", 6), np.float64),
-    "touch_hist": (("V", "touch"), np.float64),
-    "vel_hist": (("V", "velocity", 2), np.float64),
-    "readings": (("R",), np.float64),
-    "actuation": (("V",), np.float64),
-    "h_prev": (("N",), np.float64),
-    "h_next": (("N",), np.float64),
-    "tally": ((N_TALLY,), np.float64),
+WORK_PARTS = {
+    "blocks": {  # the corner bodies and the voxel corners they carry
+        "inv_mass": (("P",), np.float64),
+        "inv_inertia": (("P",), np.float64),
+        "cos": (("P",), np.float64),
+        "sin": (("P",), np.float64),
+        "body_pos": (("P", 3), np.float64),
+        "body_vel": (("P", 3), np.float64),
+        "pos": (("P", 2), np.float64),
+        "vel": (("P", 2), np.float64),
+    },
+    "joints": {  # the springs' rest lengths, the joints' rows of the solver
+        "rest": (("S",), np.float64),
+        "spring": (("S", N_SPRING_COLUMNS), np.float64),
+        "rope": (("Y", N_ROPE_COLUMNS), np.float64),
+        "weld": (("W", N_WELD_COLUMNS), np.float64),
+    },
+    "collisions": {  # contact rows (this step's, last step's), the search's scratch
+        "contacts": (("C", N_CONTACT_COLUMNS), np.float64),
+        "previous": (("C", N_CONTACT_COLUMNS), np.float64),
+        "counts": ((2,), np.int64),
+        "polygon": ((2, 4, 4), np.float64),
+        "clipped": ((2, 4), np.float64),
+        "contact": (("P",), np.bool_),
+        "segment": (("P+1",), np.int64),
+    },
+    "senses": {  # the voxels' state, the sensors' windows, the readings
+        "voxels": (("V", 6), np.float64),
+        "touch_hist": (("V", "touch"), np.float64),
+        "vel_hist": (("V", "velocity", 2), np.float64),
+        "readings": (("R",), np.float64),
+    },
+    "brain": {  # the actuation in force, the controller's two node buffers
+        "actuation": (("V",), np.float64),
+        "h_prev": (("N",), np.float64),
+        "h_next": (("N",), np.float64),
+    },
+    "tally": {"tally": ((N_TALLY,), np.float64)},
 }
-"""The per-robot arrays of an episode: name -> (shape, dtype). A shape's names are one robot's
-counts (:func:`work_sizes`): P blocks, S springs, Y ropes, W welds, C contact rows
-(:func:`~somite.sim.robot.contact_capacity`), V voxels, R readings, N controller nodes, the
-sensors' ``touch`` and ``velocity`` windows. ``body_pos``, ``body_vel`` are the corner bodies'
-state (centre of mass and angle, their rates), ``pos``, ``vel`` the voxel corners that they carry;
-``tally`` holds T_*. :func:`robot_work` and :func:`work_row` follow this table (tested)."""
+"""The per-robot arrays of an episode, by what they hold: part -> name -> (shape, dtype). A
+shape's names are one robot's counts (:func:`work_sizes`): P blocks, S springs, Y ropes, W
+welds, C contact rows (:func:`~somite.sim.robot.contact_capacity`), V voxels, R readings, N
+controller nodes, the sensors' ``touch`` and ``velocity`` windows. ``body_pos``, ``body_vel``
+are the corner bodies' state (centre of mass and angle, their rates), ``pos``, ``vel`` the
+voxel corners that they carry; ``tally`` holds T_*. The physics reads its
+:class:`~somite.sim.robot.Scratch` from ``blocks``, ``joints`` and ``collisions``.
+:func:`robot_work` and :func:`work_row` follow this table (tested)."""
 
-Work = NamedTuple("Work", [(name, np.ndarray) for name in WORK_FIELDS])
-Work.__doc__ = "One robot's arrays of :data:`WORK_FIELDS` (or a batch's, robot axis first)."
+WORK_FIELDS = {name: spec for fields in WORK_PARTS.values() for name, spec in fields.items()}
+"""Every field of :data:`WORK_PARTS`, by name."""
+
+
+def _part(name: str, fields: dict) -> type:
+    part = NamedTuple(name, [(field, np.ndarray) for field in fields])
+    part.__doc__ = f"One robot's {name.lower()} arrays of :data:`WORK_PARTS` (or a batch's)."
+    return part
+
+
+Blocks = _part("Blocks", WORK_PARTS["blocks"])
+Joints = _part("Joints", WORK_PARTS["joints"])
+Collisions = _part("Collisions", WORK_PARTS["collisions"])
+Senses = _part("Senses", WORK_PARTS["senses"])
+BrainState = _part("BrainState", WORK_PARTS["brain"])
+
+
+class Work(NamedTuple):
+    """One robot's arrays of :data:`WORK_PARTS` (or a batch's, robot axis first), by part."""
+
+    blocks: Blocks
+    joints: Joints
+    collisions: Collisions
+    senses: Senses
+    brain: BrainState
+    tally: np.ndarray
 
 
 class RobotState(NamedTuple):
@@ -180,8 +213,10 @@ def new_work(system, ctrl: Controllers, params, empty=np.empty) -> Work:
     each field (numpy's for the host; the CUDA backend passes its own)."""
     sizes = work_sizes(system, ctrl, params)
     n = system.n_points.shape[0]
-    return Work(*(empty((n, *work_shape(name, sizes)), dtype)
-                  for name, (_, dtype) in WORK_FIELDS.items()))
+    parts = [[empty((n, *work_shape(name, sizes)), dtype) for name, (_, dtype) in fields.items()]
+             for fields in WORK_PARTS.values()]
+    return Work(Blocks(*parts[0]), Joints(*parts[1]), Collisions(*parts[2]), Senses(*parts[3]),
+                BrainState(*parts[4]), parts[5][0])
 
 
 def new_trace(n_robots: int, n_steps: int, system, record: bool) -> Trace:
@@ -292,22 +327,25 @@ def _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation,
 
 @njit
 def robot_work(system, ctrl, params, b) -> Work:
-    """Robot ``b``'s :class:`Work`, allocated to its own sizes (:data:`WORK_FIELDS`)."""
+    """Robot ``b``'s :class:`Work`, allocated to its own sizes (:data:`WORK_PARTS`)."""
     p = system.n_points[b]
     s = system.n_springs[b]
     v = system.n_voxels[b]
     n = ctrl.n_nodes[b]
     c = contact_capacity(p, system.n_pairs[b])
     return Work(
-        np.empty(p), np.empty(p), np.empty(s), np.empty(p), np.empty(p),
-        np.empty((s, N_SPRING_COLUMNS)), np.empty((system.n_ropes[b], N_ROPE_COLUMNS)),
-        np.empty((system.n_welds[b], N_WELD_COLUMNS)), np.empty((c, N_CONTACT_COLUMNS)),
-        np.empty((c, N_CONTACT_COLUMNS)), np.empty(2, dtype=np.int64), np.empty((2, 4, 4)),
-        np.empty((2, 4)), np.empty(p, dtype=np.bool_), np.empty(p + 1, dtype=np.int64),
-        np.empty((p, 3)), np.empty((p, 3)), np.empty((p, 2)), np.empty((p, 2)),
-        np.empty((v, 6)), np.empty((v, int(params.touch_window))),
-        np.empty((v, int(params.velocity_window), 2)), np.empty(system.n_readings[b]),
-        np.empty(v), np.empty(n), np.empty(n), np.empty(N_TALLY),
+        Blocks(np.empty(p), np.empty(p), np.empty(p), np.empty(p), np.empty((p, 3)),
+               np.empty((p, 3)), np.empty((p, 2)), np.empty((p, 2))),
+        Joints(np.empty(s), np.empty((s, N_SPRING_COLUMNS)),
+               np.empty((system.n_ropes[b], N_ROPE_COLUMNS)),
+               np.empty((system.n_welds[b], N_WELD_COLUMNS))),
+        Collisions(np.empty((c, N_CONTACT_COLUMNS)), np.empty((c, N_CONTACT_COLUMNS)),
+                   np.empty(2, dtype=np.int64), np.empty((2, 4, 4)), np.empty((2, 4)),
+                   np.empty(p, dtype=np.bool_), np.empty(p + 1, dtype=np.int64)),
+        Senses(np.empty((v, 6)), np.empty((v, int(params.touch_window))),
+               np.empty((v, int(params.velocity_window), 2)), np.empty(system.n_readings[b])),
+        BrainState(np.empty(v), np.empty(n), np.empty(n)),
+        np.empty(N_TALLY),
     )
 
 
@@ -318,15 +356,21 @@ def _work_views(work, b, system, ctrl) -> Work:
     v = system.n_voxels[b]
     n = ctrl.n_nodes[b]
     c = contact_capacity(p, system.n_pairs[b])
+    blocks, joints, collisions, senses, brain = (work.blocks, work.joints, work.collisions,
+                                                 work.senses, work.brain)
     return Work(
-        work.inv_mass[b, :p], work.inv_inertia[b, :p], work.rest[b, :s], work.cos[b, :p],
-        work.sin[b, :p], work.spring[b, :s], work.rope[b, :system.n_ropes[b]],
-        work.weld[b, :system.n_welds[b]], work.contacts[b, :c], work.previous[b, :c],
-        work.counts[b], work.polygon[b], work.clipped[b], work.contact[b, :p],
-        work.segment[b, :p + 1], work.body_pos[b, :p], work.body_vel[b, :p], work.pos[b, :p],
-        work.vel[b, :p], work.voxels[b, :v], work.touch_hist[b, :v], work.vel_hist[b, :v],
-        work.readings[b, :system.n_readings[b]], work.actuation[b, :v], work.h_prev[b, :n],
-        work.h_next[b, :n], work.tally[b],
+        Blocks(blocks.inv_mass[b, :p], blocks.inv_inertia[b, :p], blocks.cos[b, :p],
+               blocks.sin[b, :p], blocks.body_pos[b, :p], blocks.body_vel[b, :p],
+               blocks.pos[b, :p], blocks.vel[b, :p]),
+        Joints(joints.rest[b, :s], joints.spring[b, :s], joints.rope[b, :system.n_ropes[b]],
+               joints.weld[b, :system.n_welds[b]]),
+        Collisions(collisions.contacts[b, :c], collisions.previous[b, :c], collisions.counts[b],
+                   collisions.polygon[b], collisions.clipped[b], collisions.contact[b, :p],
+                   collisions.segment[b, :p + 1]),
+        Senses(senses.voxels[b, :v], senses.touch_hist[b, :v], senses.vel_hist[b, :v],
+               senses.readings[b, :system.n_readings[b]]),
+        BrainState(brain.actuation[b, :v], brain.h_prev[b, :n], brain.h_next[b, :n]),
+        work.tally[b],
     )
 
 
@@ -350,17 +394,19 @@ def borrowed_work_row(work, b, system, ctrl) -> Work:
 def robot_state(system, b, params, work, rays) -> RobotState:
     """Robot ``b``'s :class:`RobotState` over ``work`` (its :func:`robot_work` or
     :func:`work_row`) and ``rays`` (:func:`~somite.sim.sensors.lidar_rays`)."""
-    robot_in(system, b, params, work.inv_mass, work.inv_inertia)
+    robot_in(system, b, params, work.blocks.inv_mass, work.blocks.inv_inertia)
     return state_over(system, b, work, rays)
 
 
 @njit(inline="always")
 def state_over(system, b, work, rays) -> RobotState:
     """:func:`robot_state` over a ``work`` that it has filled before."""
-    robot = robot_over(system, b, work.inv_mass, work.inv_inertia)
-    scratch = Scratch(work.rest, work.cos, work.sin, work.spring, work.rope, work.weld,
-                      work.contacts, work.previous, work.counts, work.polygon, work.clipped,
-                      work.contact, work.segment)
+    robot = robot_over(system, b, work.blocks.inv_mass, work.blocks.inv_inertia)
+    joints, collisions = work.joints, work.collisions
+    scratch = Scratch(joints.rest, work.blocks.cos, work.blocks.sin, joints.spring, joints.rope,
+                      joints.weld, collisions.contacts, collisions.previous, collisions.counts,
+                      collisions.polygon, collisions.clipped, collisions.contact,
+                      collisions.segment)
     return RobotState(robot, ground_view(system, b), scratch, work, rays)
 
 
@@ -383,28 +429,29 @@ def start(b, system, params, trace, state) -> None:
     n_points = robot.n_points
     n_voxels = robot.n_voxels
     n_readings = system.n_readings[b]
-    body_pos = work.body_pos
-    body_vel = work.body_vel
-    touch_hist = work.touch_hist
-    vel_hist = work.vel_hist
-    h_prev = work.h_prev
-    h_next = work.h_next
+    body_pos = work.blocks.body_pos
+    body_vel = work.blocks.body_vel
+    touch_hist = work.senses.touch_hist
+    vel_hist = work.senses.vel_hist
+    h_prev = work.brain.h_prev
+    h_next = work.brain.h_next
     for p in range(n_points):
         body_pos[p, 0] = system.initial_pos[b, p, 0]
         body_pos[p, 1] = system.initial_pos[b, p, 1]
         body_pos[p, 2] = 0.0
         body_vel[p, 0] = body_vel[p, 1] = body_vel[p, 2] = 0.0
-    corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, work.pos, work.vel)
+    corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, work.blocks.pos,
+                 work.blocks.vel)
     for v in range(n_voxels):
-        work.actuation[v] = 0.0
+        work.brain.actuation[v] = 0.0
         for j in range(6):
-            work.voxels[v, j] = 0.0
+            work.senses.voxels[v, j] = 0.0
         for j in range(touch_hist.shape[1]):
             touch_hist[v, j] = 0.0
         for j in range(vel_hist.shape[1]):
             vel_hist[v, j, 0] = vel_hist[v, j, 1] = 0.0
     for r in range(n_readings):
-        work.readings[r] = 0.0
+        work.senses.readings[r] = 0.0
     for n in range(h_prev.shape[0]):
         h_prev[n] = h_next[n] = 0.0
     cx, cy = _centre_of_mass(n_points, robot.mass, body_pos)
@@ -412,8 +459,8 @@ def start(b, system, params, trace, state) -> None:
     trace.com[b, 0, 0] = cx
     trace.com[b, 0, 1] = cy
     if trace.pos.shape[0] > 0:
-        _record(b, 0, n_points, n_voxels, n_readings, work.pos, scratch.contact, work.actuation,
-                work.readings, trace)
+        _record(b, 0, n_points, n_voxels, n_readings, work.blocks.pos, scratch.contact,
+                work.brain.actuation, work.senses.readings, trace)
     work.tally[T_FASTEST] = 0.0
     work.tally[T_SMALLEST] = np.inf
     work.tally[T_NON_FINITE] = 0.0
@@ -433,9 +480,10 @@ def control_step(k, b, system, ctrl, params, noise, seed, trace, state) -> bool:
     which ends its episode (``trace.status``). The physics under the actuation in force
     (:func:`before_physics`, ``advance``), then :func:`after_physics`; the CPU kernel
     (:mod:`somite.tasks.lanes`) runs the three parts over a group of robots at once."""
-    before_physics(state.robot, state.work.actuation, params, state.scratch.rest)
-    advance(state.robot, state.ground, state.scratch, state.work.body_pos, state.work.body_vel,
-            params, int(params.substeps))
+    before_physics(state.robot, state.work.brain.actuation, params, state.scratch.rest)
+    blocks = state.work.blocks
+    advance(state.robot, state.ground, state.scratch, blocks.body_pos, blocks.body_vel, params,
+            int(params.substeps))
     return after_physics(k, b, system, ctrl, params, noise, seed, trace, state)
 
 
@@ -459,13 +507,13 @@ def after_physics(k, b, system, ctrl, params, noise, seed, trace, state) -> bool
     n_readings = system.n_readings[b]
     mass = robot.mass
     voxel_x = system.voxel_x[b]
-    body_pos = work.body_pos
-    body_vel = work.body_vel
-    pos = work.pos
-    vel = work.vel
-    voxels = work.voxels
-    readings = work.readings
-    actuation = work.actuation
+    body_pos = work.blocks.body_pos
+    body_vel = work.blocks.body_vel
+    pos = work.blocks.pos
+    vel = work.blocks.vel
+    voxels = work.senses.voxels
+    readings = work.senses.readings
+    actuation = work.brain.actuation
     tally = work.tally
     corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, pos, vel)
     cx, cy = _centre_of_mass(n_points, mass, body_pos)
@@ -494,13 +542,13 @@ def after_physics(k, b, system, ctrl, params, noise, seed, trace, state) -> bool
     tilt = _column_tilt(n_voxels, voxel_x, tally[T_X_LO], tally[T_X_HI], voxels)
     _observe(k, robot, ground, n_points, mass, body_pos, body_vel, scratch.cos, scratch.sin,
              cx, cy, tilt, near, params, trace.diagnostics[b])
-    update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels, work.touch_hist,
-                     work.vel_hist, params)
+    update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels,
+                     work.senses.touch_hist, work.senses.vel_hist, params)
     sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
-          work.touch_hist, work.vel_hist, state.rays, ground.xs, ground.ys, ground.n, near,
-          params, noise, readings)
-    _control(b, k, ctrl, n_voxels, voxel_x, readings, work.h_prev, work.h_next, actuation,
-             params)
+          work.senses.touch_hist, work.senses.vel_hist, state.rays, ground.xs, ground.ys,
+          ground.n, near, params, noise, readings)
+    _control(b, k, ctrl, n_voxels, voxel_x, readings, work.brain.h_prev, work.brain.h_next,
+             actuation, params)
     # The physics clamps actuation to [-1, 1] (a NaN acts as -1): counted, not hidden.
     for v in range(n_voxels):
         if not math.isfinite(actuation[v]):

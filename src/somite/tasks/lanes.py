@@ -87,12 +87,12 @@ def _group(batch, first, count, spent):
     """The :class:`~somite.sim.group.Group` of robots ``first .. first + count - 1``, every
     lane holding robot ``first``'s state (a lane no robot uses keeps computing on it,
     harmlessly)."""
-    work = batch.work
-    group = new_group(batch.system, first, count, (work.inv_mass[first], work.inv_inertia[first]),
-                      spent)
+    blocks = batch.work.blocks
+    group = new_group(batch.system, first, count,
+                      (blocks.inv_mass[first], blocks.inv_inertia[first]), spent)
     for g in range(jl.LANES):
-        jl.take(group.lanes, g, work.body_pos[first], work.body_vel[first], work.cos[first],
-                work.sin[first])
+        jl.take(group.lanes, g, blocks.body_pos[first], blocks.body_vel[first],
+                blocks.cos[first], blocks.sin[first])
     return group
 
 
@@ -125,7 +125,7 @@ def _begin(solver, params):
     for i in range(solver.n):
         b = solver.group.running[i]
         state = _lane(solver.batch, b)
-        w = state.work
+        w = state.work.blocks
         ph.velocities(state.robot, w.body_vel, params)
         ph.start_contacts(state.robot, state.scratch, w.body_pos, w.body_vel, params)
         jl.take(solver.group.lanes, b - solver.group.first, w.body_pos, w.body_vel, w.cos, w.sin)
@@ -152,7 +152,8 @@ def _solve_contacts(solver, params):
     for i in range(solver.n):
         b = solver.group.running[i]
         state = _lane(solver.batch, b)
-        ph.solve_contacts(state.robot, state.scratch, solver.group.lanes.vel[:, :, b - solver.group.first])
+        ph.solve_contacts(state.robot, state.scratch,
+                          solver.group.lanes.vel[:, :, b - solver.group.first])
     _tick(solver, P_CONTACTS)
 
 
@@ -199,7 +200,7 @@ def _end(solver, params):
     for i in range(solver.n):
         b = solver.group.running[i]
         state = _lane(solver.batch, b)
-        w = state.work
+        w = state.work.blocks
         jl.give(solver.group.lanes, b - solver.group.first, w.body_pos, w.body_vel, w.cos, w.sin)
         ph.find_contacts(state.robot, state.ground, state.scratch, w.body_pos, params)
     _tick(solver, P_FOUND)
@@ -213,12 +214,13 @@ def advance_group(batch, group, n):
     params = batch.params
     if group.count == 1:
         state = _lane(batch, group.running[0])
-        ph.advance(state.robot, state.ground, state.scratch, state.work.body_pos,
-                   state.work.body_vel, params, int(params.substeps))
+        ph.advance(state.robot, state.ground, state.scratch, state.work.blocks.body_pos,
+                   state.work.blocks.body_vel, params, int(params.substeps))
         return
     for i in range(n):
         state = _lane(batch, group.running[i])
-        ph.turn(state.robot.n_points, state.work.body_pos, state.scratch.cos, state.scratch.sin)
+        ph.turn(state.robot.n_points, state.work.blocks.body_pos, state.scratch.cos,
+                state.scratch.sin)
     lanes = InLanes(batch, group, n)
     for _ in range(int(params.substeps)):
         physics_step(lanes, params)
@@ -237,7 +239,7 @@ def control_steps(batch, group):
             state = _lane(batch, running[i])
             rest = (state.scratch.rest if group.count == 1
                     else group.lanes.rest[:, running[i] - group.first])
-            before_physics(state.robot, state.work.actuation, params, rest)
+            before_physics(state.robot, state.work.brain.actuation, params, rest)
         clock = tick(spent, P_REST, clock, timed)
         advance_group(batch, group, n)
         clock = cycles() if timed else 0

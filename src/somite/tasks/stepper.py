@@ -59,7 +59,7 @@ def _step_robots(k, system, ctrl, params, noise, seeds, trace, work, rays, given
             if given.shape[0] > 0:
                 # What was in force over step k is what the trace shows at step k - 1, which
                 # decided it.
-                actuation = state.work.actuation
+                actuation = state.work.brain.actuation
                 for v in range(actuation.shape[0]):
                     actuation[v] = given[b, v]
                     if recording:
@@ -252,17 +252,17 @@ class Episode:
     def readings(self) -> np.ndarray:
         """(B, R) the sensors' normalised, noisy readings of the last step (padded: a robot's
         first ``n_readings`` columns)."""
-        return _read_only(self._work.readings)
+        return _read_only(self._work.senses.readings)
 
     @property
     def actuation(self) -> np.ndarray:
         """(B, V) the actuation in force over the next step (the controllers' decision)."""
-        return _read_only(self._work.actuation)
+        return _read_only(self._work.brain.actuation)
 
     @property
     def positions(self) -> np.ndarray:
         """(B, P, 2) the voxel corners' positions [m] (a robot's first ``n_points`` rows)."""
-        return _read_only(self._work.pos)
+        return _read_only(self._work.blocks.pos)
 
     @property
     def com(self) -> np.ndarray:

@@ -167,10 +167,10 @@ def _alone_and_grouped(bodies, sizes, nan_robot=None):
     rays = lidar_rays(params)
     alone = new_trace(len(bodies), config.n_steps, system, True)
     work = new_work(system, ctrl, params, np.zeros)
-    start_batch(system, ctrl, params, alone, work, rays)
+    batch = Batch(system, ctrl, params, noise, seeds, config.n_steps, alone, work, rays)
+    start_batch(batch)
     for k in range(1, config.n_steps + 1):
-        step_batch(k, system, ctrl, params, noise, seeds, alone, work, rays,
-                   np.zeros((0, system.voxel_corners.shape[1])))
+        step_batch(k, batch, np.zeros((0, system.voxel_corners.shape[1])))
     runs = []
     for size in sizes:
         first, count = groups(system, size, threads=1)

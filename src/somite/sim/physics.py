@@ -170,9 +170,13 @@ def relative(a0, a1, a2, b0, b1, b2, rax, ray, rbx, rby):
 
 
 @njit(inline="always")
-def push(vel, a, b, rax, ray, rbx, rby, jx, jy, inv_mass, inv_inertia):
-    """Impulse (jx, jy) on body a at offset ra, its opposite on body b at rb (b < 0: the
-    ground). Also moves positions: ``vel`` may be ``pos``, the same arithmetic."""
+def push(vel, a, b, r, j, masses):
+    """Impulse ``j`` = (jx, jy) on body a at offset ra, its opposite on body b at rb (b < 0:
+    the ground); ``r`` = (rax, ray, rbx, rby), ``masses`` = (inv_mass, inv_inertia). Also moves
+    positions: ``vel`` may be ``pos``, the same arithmetic."""
+    rax, ray, rbx, rby = r
+    jx, jy = j
+    inv_mass, inv_inertia = masses
     vel[a, 0] += jx * inv_mass[a]
     vel[a, 1] += jy * inv_mass[a]
     vel[a, 2] += inv_inertia[a] * (rax * jy - ray * jx)
@@ -235,18 +239,25 @@ def spring_impulse(rax, ray, rbx, rby, nx, ny, mass, bias, gamma, impulse, a0, a
 
 
 @njit(inline="always")
-def push_pair(vel, a, b, rax, ray, rbx, rby, jx, jy, ima, iia, imb, iib):
-    """:func:`pushed` on the rows a and b of ``vel``."""
+def push_pair(vel, a, b, r, j, m):
+    """:func:`pushed` on the rows a and b of ``vel``: ``r`` = (rax, ray, rbx, rby), ``j`` =
+    (jx, jy), ``m`` = (ima, iia, imb, iib)."""
+    rax, ray, rbx, rby = r
+    jx, jy = j
+    ima, iia, imb, iib = m
     (vel[a, 0], vel[a, 1], vel[a, 2], vel[b, 0], vel[b, 1], vel[b, 2]) = pushed(
         vel[a, 0], vel[a, 1], vel[a, 2], vel[b, 0], vel[b, 1], vel[b, 2], rax, ray, rbx, rby, jx,
         jy, ima, iia, imb, iib)
 
 
 @njit(inline="always")
-def spring_setup(s, a, b, anchor, rest, work, pos, vel, cos, sin, inv_mass, inv_inertia, dt,
-                 omega, damping_ratio):
-    """Set up spring s (ends a, b) for this step (:func:`spring_terms`) and apply last step's
-    impulse."""
+def spring_setup(s, a, b, robot, scratch, pos, vel, terms):
+    """Set up spring s (ends a, b) for this step (:func:`spring_terms`; ``terms``: dt, omega,
+    damping ratio) and apply last step's impulse."""
+    anchor, rest, work, cos, sin = robot.anchor, scratch.rest, scratch.spring, scratch.cos, \
+        scratch.sin
+    inv_mass, inv_inertia = robot.inv_mass, robot.inv_inertia
+    dt, omega, damping_ratio = terms
     ima, iia, imb, iib = inv_mass[a], inv_inertia[a], inv_mass[b], inv_inertia[b]
     rax, ray = turned(a, anchor[s, 0], anchor[s, 1], cos, sin)
     rbx, rby = turned(b, anchor[s, 2], anchor[s, 3], cos, sin)
@@ -263,7 +274,7 @@ def spring_setup(s, a, b, anchor, rest, work, pos, vel, cos, sin, inv_mass, inv_
     work[s, J_GAMMA] = gamma
     work[s, J_BIAS] = bias
     j = work[s, J_IMPULSE]
-    push_pair(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, ima, iia, imb, iib)
+    push_pair(vel, a, b, (rax, ray, rbx, rby), (nx * j, ny * j), (ima, iia, imb, iib))
 
 
 @njit(inline="always")
@@ -279,8 +290,8 @@ def spring_solve(s, a, b, work, vel, inv_mass, inv_inertia):
                        work[s, J_GAMMA], work[s, J_IMPULSE], vel[a, 0], vel[a, 1], vel[a, 2],
                        vel[b, 0], vel[b, 1], vel[b, 2])
     work[s, J_IMPULSE] += j
-    push_pair(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass[a], inv_inertia[a],
-              inv_mass[b], inv_inertia[b])
+    push_pair(vel, a, b, (rax, ray, rbx, rby), (nx * j, ny * j),
+              (inv_mass[a], inv_inertia[a], inv_mass[b], inv_inertia[b]))
 
 
 @njit(inline="always")
@@ -289,9 +300,8 @@ def start_springs(robot, scratch, pos, vel, params):
     ends = robot.ends
     omega = 2.0 * math.pi * params.spring_hz
     for s in range(robot.n_springs):
-        spring_setup(s, ends[s, 0], ends[s, 1], robot.anchor, scratch.rest, scratch.spring, pos,
-                     vel, scratch.cos, scratch.sin, robot.inv_mass, robot.inv_inertia,
-                     params.dt, omega, params.damping_ratio)
+        spring_setup(s, ends[s, 0], ends[s, 1], robot, scratch, pos, vel,
+                     (params.dt, omega, params.damping_ratio))
 
 
 @njit(inline="always")
@@ -320,8 +330,8 @@ def rope_setup(r, a, b, work, pos, vel, inv_mass, inv_inertia):
         work[r, R_MASS] = 1.0 / (inv_mass[a] + inv_mass[b])
         work[r, R_ACTIVE] = 1.0
         j = work[r, R_IMPULSE]
-        push_pair(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, inv_mass[a], inv_inertia[a],
-                  inv_mass[b], inv_inertia[b])
+        push_pair(vel, a, b, (0.0, 0.0, 0.0, 0.0), (nx * j, ny * j),
+                  (inv_mass[a], inv_inertia[a], inv_mass[b], inv_inertia[b]))
     else:
         work[r, R_ACTIVE] = 0.0
         work[r, R_IMPULSE] = 0.0
@@ -335,8 +345,8 @@ def rope_solve(r, a, b, work, vel, inv_mass, inv_inertia):
     ny = work[r, R_NY]
     j = rope_impulse(nx, ny, work[r, R_MASS], vel[a, 0], vel[a, 1], vel[b, 0], vel[b, 1])
     work[r, R_IMPULSE] += j
-    push_pair(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, inv_mass[a], inv_inertia[a],
-              inv_mass[b], inv_inertia[b])
+    push_pair(vel, a, b, (0.0, 0.0, 0.0, 0.0), (nx * j, ny * j),
+              (inv_mass[a], inv_inertia[a], inv_mass[b], inv_inertia[b]))
 
 
 @njit
@@ -361,7 +371,7 @@ def rope_fix(a, b, pos, inv_mass, inv_inertia) -> bool:
     jx, jy, slack, held = rope_fixed(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], inv_mass[a],
                                      inv_mass[b])
     if not slack:
-        push(pos, a, b, 0.0, 0.0, 0.0, 0.0, jx, jy, inv_mass, inv_inertia)
+        push(pos, a, b, (0.0, 0.0, 0.0, 0.0), (jx, jy), (inv_mass, inv_inertia))
     return held
 
 
@@ -432,8 +442,12 @@ def weld_impulse(rbx, rby, ima, iia, imb, iib, a0, a1, a2, b0, b1, b2):
 
 
 @njit(inline="always")
-def weld_push(state, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia):
-    """:func:`weld_pushed` on the rows a and b of ``state``."""
+def weld_push(state, a, b, rb, j, masses):
+    """:func:`weld_pushed` on the rows a and b of ``state``: ``rb`` = (rbx, rby), ``j`` =
+    (jx, jy, jz), ``masses`` = (inv_mass, inv_inertia)."""
+    rbx, rby = rb
+    jx, jy, jz = j
+    inv_mass, inv_inertia = masses
     (state[a, 0], state[a, 1], state[a, 2], state[b, 0], state[b, 1], state[b, 2]) = \
         weld_pushed(state[a, 0], state[a, 1], state[a, 2], state[b, 0], state[b, 1],
                     state[b, 2], rbx, rby, jx, jy, jz, inv_mass[a], inv_inertia[a], inv_mass[b],
@@ -441,12 +455,13 @@ def weld_push(state, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia):
 
 
 @njit(inline="always")
-def weld_setup(q, a, b, anchor, work, vel, cos, sin, inv_mass, inv_inertia):
-    rbx, rby = turned(b, anchor[q, 0], anchor[q, 1], cos, sin)
+def weld_setup(q, a, b, robot, scratch, vel):
+    anchor, work = robot.weld_anchor, scratch.weld
+    rbx, rby = turned(b, anchor[q, 0], anchor[q, 1], scratch.cos, scratch.sin)
     work[q, W_RBX] = rbx
     work[q, W_RBY] = rby
-    weld_push(vel, a, b, rbx, rby, work[q, W_JX], work[q, W_JY], work[q, W_JZ], inv_mass,
-              inv_inertia)
+    weld_push(vel, a, b, (rbx, rby), (work[q, W_JX], work[q, W_JY], work[q, W_JZ]),
+              (robot.inv_mass, robot.inv_inertia))
 
 
 @njit(inline="always")
@@ -459,7 +474,7 @@ def weld_solve(q, a, b, work, vel, inv_mass, inv_inertia):
     work[q, W_JX] += jx
     work[q, W_JY] += jy
     work[q, W_JZ] += jz
-    weld_push(vel, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia)
+    weld_push(vel, a, b, (rbx, rby), (jx, jy, jz), (inv_mass, inv_inertia))
 
 
 @njit
@@ -479,14 +494,15 @@ def weld_fixed(pa0, pa1, pa2, pb0, pb1, pb2, rbx, rby, ima, iia, imb, iib):
 
 
 @njit(inline="always")
-def weld_fix(q, a, b, anchor, pos, cos, sin, inv_mass, inv_inertia) -> bool:
+def weld_fix(q, a, b, robot, pos, cos, sin) -> bool:
     """One position pass over weld q between a and b (:func:`weld_fixed`); whether it holds.
     Updates the rotations it changes."""
+    anchor, inv_mass, inv_inertia = robot.weld_anchor, robot.inv_mass, robot.inv_inertia
     rbx, rby = turned(b, anchor[q, 0], anchor[q, 1], cos, sin)
     jx, jy, jz, held = weld_fixed(pos[a, 0], pos[a, 1], pos[a, 2], pos[b, 0], pos[b, 1],
                                   pos[b, 2], rbx, rby, inv_mass[a], inv_inertia[a],
                                   inv_mass[b], inv_inertia[b])
-    weld_push(pos, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia)
+    weld_push(pos, a, b, (rbx, rby), (jx, jy, jz), (inv_mass, inv_inertia))
     cos[a], sin[a] = sincos(pos[a, 2])
     cos[b], sin[b] = sincos(pos[b, 2])
     return held
@@ -496,8 +512,7 @@ def weld_fix(q, a, b, anchor, pos, cos, sin, inv_mass, inv_inertia) -> bool:
 def start_welds(robot, scratch, vel):
     ends = robot.weld_ends
     for q in range(robot.n_welds):
-        weld_setup(q, ends[q, 0], ends[q, 1], robot.weld_anchor, scratch.weld, vel, scratch.cos,
-                   scratch.sin, robot.inv_mass, robot.inv_inertia)
+        weld_setup(q, ends[q, 0], ends[q, 1], robot, scratch, vel)
 
 
 @njit(inline="always")
@@ -514,8 +529,7 @@ def fix_welds(robot, pos, cos, sin) -> bool:
     ends = robot.weld_ends
     held = True
     for q in range(robot.n_welds):
-        if not weld_fix(q, ends[q, 0], ends[q, 1], robot.weld_anchor, pos, cos, sin,
-                        robot.inv_mass, robot.inv_inertia):
+        if not weld_fix(q, ends[q, 0], ends[q, 1], robot, pos, cos, sin):
             held = False
     return held
 
@@ -579,8 +593,8 @@ def start_contacts(robot, scratch, pos, vel, params):
         ny = c[k, C_NY]
         jn = c[k, C_JN]
         jt = c[k, C_JT]
-        push(vel, a, b, c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY],
-             nx * jn + ny * jt, ny * jn - nx * jt, inv_mass, inv_inertia)
+        push(vel, a, b, (c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY]),
+             (nx * jn + ny * jt, ny * jn - nx * jt), (inv_mass, inv_inertia))
 
 
 @njit(inline="always")
@@ -610,8 +624,8 @@ def solve_normal(c, k, vel, inv_mass, inv_inertia):
     j0 = c[k, C_JN]
     c[k, C_JN] = max(j0 + j, 0.0)
     j = c[k, C_JN] - j0
-    push(vel, a, b, c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY], nx * j, ny * j,
-         inv_mass, inv_inertia)
+    push(vel, a, b, (c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY]), (nx * j, ny * j),
+         (inv_mass, inv_inertia))
 
 
 @njit(inline="always")
@@ -648,10 +662,10 @@ def solve_pair(c, k, vel, inv_mass, inv_inertia):
                     return
     d1 = x1 - a1
     d2 = x2 - a2
-    push(vel, a, b, c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY], nx * d1, ny * d1,
-         inv_mass, inv_inertia)
-    push(vel, a, b, c[k + 1, C_RAX], c[k + 1, C_RAY], c[k + 1, C_RBX], c[k + 1, C_RBY],
-         nx * d2, ny * d2, inv_mass, inv_inertia)
+    push(vel, a, b, (c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY]), (nx * d1, ny * d1),
+         (inv_mass, inv_inertia))
+    push(vel, a, b, (c[k + 1, C_RAX], c[k + 1, C_RAY], c[k + 1, C_RBX], c[k + 1, C_RBY]),
+         (nx * d2, ny * d2), (inv_mass, inv_inertia))
     c[k, C_JN] = x1
     c[k + 1, C_JN] = x2
 
@@ -681,8 +695,8 @@ def solve_contacts(robot, scratch, vel):
             j0 = c[i, C_JT]
             c[i, C_JT] = max(-limit, min(j0 + j, limit))
             j = c[i, C_JT] - j0
-            push(vel, a, b, c[i, C_RAX], c[i, C_RAY], c[i, C_RBX], c[i, C_RBY], tx * j, ty * j,
-                 inv_mass, inv_inertia)
+            push(vel, a, b, (c[i, C_RAX], c[i, C_RAY], c[i, C_RBX], c[i, C_RBY]),
+                 (tx * j, ty * j), (inv_mass, inv_inertia))
         if count == 2 and c[k, C_LIVE] != 0.0 and c[k + 1, C_LIVE] != 0.0:
             solve_pair(c, k, vel, inv_mass, inv_inertia)
         else:
@@ -731,7 +745,7 @@ def fix_contacts(robot, scratch, pos, cos, sin) -> bool:
         j0 = c[k, C_JP]
         c[k, C_JP] = max(j0 + j, 0.0)
         j = c[k, C_JP] - j0
-        push(pos, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass, inv_inertia)
+        push(pos, a, b, (rax, ray, rbx, rby), (nx * j, ny * j), (inv_mass, inv_inertia))
         cos[a], sin[a] = sincos(pos[a, 2])
         if b >= 0:
             cos[b], sin[b] = sincos(pos[b, 2])
@@ -943,10 +957,12 @@ def manifold(one, two, nx, ny, clipped):
 
 
 @njit(inline="always")
-def add_contacts(robot, scratch, pos, a, b, partner, one, two, mu) -> int:
-    """The contacts of body a (polygon ``two``) with body b (polygon ``one``; b < 0: the
-    ground, ``partner`` its segment, else ``partner`` = b) into the contact table, warm-started
-    from last step's point of the same feature; returns how many."""
+def add_contacts(robot, scratch, pos, a, b, partner, polygons, mu) -> int:
+    """The contacts of body a (polygon ``two`` of ``polygons`` = (one, two)) with body b
+    (polygon ``one``; b < 0: the ground, ``partner`` its segment, else ``partner`` = b) into the
+    contact table, warm-started from last step's point of the same feature; returns how
+    many."""
+    one, two = polygons
     overlap, nx, ny = deepest_axis(one, two)
     if overlap <= 0.0:
         return 0
@@ -1039,7 +1055,8 @@ def find_contacts(robot, ground, scratch, pos, params):
         while i < n - 1 and xs[i] < hi_x:
             if lo_y < max(ys[i], ys[i + 1]) and not above_segment(xs, ys, i, two):
                 ground_polygon(xs, ys, i, one)
-                if add_contacts(robot, scratch, pos, p, -1, i, one, two, params.friction) > 0:
+                if add_contacts(robot, scratch, pos, p, -1, i, (one, two),
+                                params.friction) > 0:
                     scratch.contact[p] = True
             i += 1
     segment[robot.n_points] = left
@@ -1052,7 +1069,7 @@ def find_contacts(robot, ground, scratch, pos, params):
             continue
         block_polygon(a, pos, cos, sin, one)
         block_polygon(b, pos, cos, sin, two)
-        add_contacts(robot, scratch, pos, b, a, a, one, two, params.block_friction)
+        add_contacts(robot, scratch, pos, b, a, a, (one, two), params.block_friction)
 
 
 @njit(inline="always")

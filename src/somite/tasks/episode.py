@@ -23,7 +23,7 @@ import numpy as np
 from .._jit import njit, uncounted
 from ..brain.kernels import graph_step
 from ..brain.openloop import sine_actuation, table_actuation
-from ..sim.config import CONTROL_HZ
+from ..sim.config import CONTROL_HZ, Params
 from ..sim.physics import (
     N_CONTACT_COLUMNS,
     N_ROPE_COLUMNS,
@@ -47,6 +47,7 @@ from ..sim.robot import (
     robot_over,
 )
 from ..sim.sensors import angle_mode, sense, update_histories, voxel_state
+from ..sim.system import System
 
 ZERO, SINE, TABLE, GRAPH = 0, 1, 2, 3
 CONTROLLER_KINDS = {"zero": ZERO, "sine": SINE, "table": TABLE, "graph": GRAPH}
@@ -139,6 +140,21 @@ class Work(NamedTuple):
     senses: Senses
     brain: BrainState
     tally: np.ndarray
+
+
+class Batch(NamedTuple):
+    """A batch's inputs, and what its episodes write into (``trace``, the rows of ``work``):
+    what every kernel over robots of the batch reads."""
+
+    system: System
+    ctrl: Controllers
+    params: Params
+    noise: np.ndarray  # noise_table(config)
+    seeds: np.ndarray  # (B,) uint64: each robot's sensor noise
+    n_steps: int
+    trace: Trace
+    work: Work
+    rays: np.ndarray  # lidar_rays(params)
 
 
 class RobotState(NamedTuple):
@@ -272,16 +288,17 @@ def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
 
 
 @uncounted
-def _observe(k, robot, ground, n_points, mass, pos, vel, cos, sin, cx, cy, tilt, near, params,
-             out):
-    """Update the episode's diagnostics ``out`` (D_*) with control step ``k``; ``pos``,
-    ``vel``: the bodies' state, ``cos``, ``sin`` their rotations; ``near``: a terrain segment
-    near the robot."""
+def _observe(k, robot, ground, blocks, at, params, out):
+    """Update the episode's diagnostics ``out`` (D_*) with control step ``k``; ``blocks``: the
+    robot's :class:`Blocks`; ``at``: its centre of mass (x, y), tilt [deg] and a terrain
+    segment near it."""
     if k <= SETTLE_STEPS:
         return
-    gap = lowest_gap(robot, ground, pos, cos, sin, near)
+    cx, cy, tilt, near = at
+    mass, vel = robot.mass, blocks.body_vel
+    gap = lowest_gap(robot, ground, blocks.body_pos, blocks.cos, blocks.sin, near)
     total = vx = vy = 0.0
-    for p in range(n_points):
+    for p in range(robot.n_points):
         total += mass[p]
         vx += mass[p] * vel[p, 0]
         vy += mass[p] * vel[p, 1]
@@ -298,14 +315,17 @@ def _observe(k, robot, ground, n_points, mass, pos, vel, cos, sin, cx, cy, tilt,
 
 
 @uncounted
-def _record(b, step, n_points, n_voxels, n_readings, pos, contact, actuation, readings, trace):
-    for p in range(n_points):
+def _record(b, step, state, trace):
+    """Robot ``b``'s corners, contacts, actuation and readings into ``trace`` at ``step``."""
+    pos, contact = state.work.blocks.pos, state.scratch.contact
+    actuation, readings = state.work.brain.actuation, state.work.senses.readings
+    for p in range(state.robot.n_points):
         trace.pos[b, step, p, 0] = pos[p, 0]
         trace.pos[b, step, p, 1] = pos[p, 1]
         trace.contact[b, step, p] = contact[p]
-    for v in range(n_voxels):
+    for v in range(state.robot.n_voxels):
         trace.actuation[b, step, v] = actuation[v]
-    for r in range(n_readings):
+    for r in range(readings.shape[0]):
         trace.readings[b, step, r] = readings[r]
 
 
@@ -459,8 +479,7 @@ def start(b, system, params, trace, state) -> None:
     trace.com[b, 0, 0] = cx
     trace.com[b, 0, 1] = cy
     if trace.pos.shape[0] > 0:
-        _record(b, 0, n_points, n_voxels, n_readings, work.blocks.pos, scratch.contact,
-                work.brain.actuation, work.senses.readings, trace)
+        _record(b, 0, state, trace)
     work.tally[T_FASTEST] = 0.0
     work.tally[T_SMALLEST] = np.inf
     work.tally[T_NON_FINITE] = 0.0
@@ -475,16 +494,17 @@ def start(b, system, params, trace, state) -> None:
 # Inlined into its loops: a call per control step would pass the whole RobotState (some 50
 # arrays) and count references to each (measured: 6% of the kernel's time).
 @njit(inline="always")
-def control_step(k, b, system, ctrl, params, noise, seed, trace, state) -> bool:
-    """Control step ``k`` (1..n_steps) of robot ``b``: False when its state went non-finite,
-    which ends its episode (``trace.status``). The physics under the actuation in force
+def control_step(k, b, batch, state) -> bool:
+    """Control step ``k`` (1..n_steps) of robot ``b`` of ``batch``: False when its state went
+    non-finite, which ends its episode (``trace.status``). The physics under the actuation in force
     (:func:`before_physics`, ``advance``), then :func:`after_physics`; the CPU kernel
     (:mod:`somite.tasks.lanes`) runs the three parts over a group of robots at once."""
+    params = batch.params
     before_physics(state.robot, state.work.brain.actuation, params, state.scratch.rest)
     blocks = state.work.blocks
     advance(state.robot, state.ground, state.scratch, blocks.body_pos, blocks.body_vel, params,
             int(params.substeps))
-    return after_physics(k, b, system, ctrl, params, noise, seed, trace, state)
+    return after_physics(k, b, batch, state)
 
 
 @njit(inline="always")
@@ -495,9 +515,11 @@ def before_physics(robot, actuation, params, rest) -> None:
 
 
 @njit(inline="always")
-def after_physics(k, b, system, ctrl, params, noise, seed, trace, state) -> bool:
+def after_physics(k, b, batch, state) -> bool:
     """What control step ``k`` does after its physics: check the state, observe, sense,
     control, record (:func:`control_step`'s return value)."""
+    system, ctrl, params, trace = batch.system, batch.ctrl, batch.params, batch.trace
+    noise, seed = batch.noise, batch.seeds[b]
     robot = state.robot
     ground = state.ground
     scratch = state.scratch
@@ -540,8 +562,7 @@ def after_physics(k, b, system, ctrl, params, noise, seed, trace, state) -> bool
     tally[T_SMALLEST] = smallest
     near = scratch.segment[robot.n_points]
     tilt = _column_tilt(n_voxels, voxel_x, tally[T_X_LO], tally[T_X_HI], voxels)
-    _observe(k, robot, ground, n_points, mass, body_pos, body_vel, scratch.cos, scratch.sin,
-             cx, cy, tilt, near, params, trace.diagnostics[b])
+    _observe(k, robot, ground, work.blocks, (cx, cy, tilt, near), params, trace.diagnostics[b])
     update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels,
                      work.senses.touch_hist, work.senses.vel_hist, params)
     sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
@@ -555,8 +576,7 @@ def after_physics(k, b, system, ctrl, params, noise, seed, trace, state) -> bool
             tally[T_NON_FINITE] += 1.0
             break
     if trace.pos.shape[0] > 0:
-        _record(b, k, n_points, n_voxels, n_readings, pos, scratch.contact, actuation,
-                readings, trace)
+        _record(b, k, state, trace)
     return True
 
 
@@ -570,10 +590,10 @@ def finish(b, trace, state) -> None:
 
 
 @njit(inline="always")
-def episode(b, system, ctrl, params, noise, seed, n_steps, trace, state) -> None:
-    """Robot ``b``'s whole episode over ``state`` (:func:`robot_state`), into ``trace``."""
-    start(b, system, params, trace, state)
-    for k in range(1, n_steps + 1):
-        if not control_step(k, b, system, ctrl, params, noise, seed, trace, state):
+def episode(b, batch, state) -> None:
+    """Robot ``b``'s whole episode over ``state`` (:func:`robot_state`), into ``batch.trace``."""
+    start(b, batch.system, batch.params, batch.trace, state)
+    for k in range(1, batch.n_steps + 1):
+        if not control_step(k, b, batch, state):
             break
-    finish(b, trace, state)
+    finish(b, batch.trace, state)

@@ -26,16 +26,12 @@ from .._threads import spread
 from ..sim import joint_lanes as jl
 from ..sim import physics as ph
 from ..sim import step as order
-from ..sim.config import Params
 from ..sim.group import GROUP_SIZE, Group, groups, new_group
 from ..sim.sensors import lidar_rays
 from ..sim.step import implements
 from ..sim.step import step as physics_step
-from ..sim.system import System
 from .episode import (
-    Controllers,
-    Trace,
-    Work,
+    Batch,
     after_physics,
     before_physics,
     borrowed_work_row,
@@ -59,20 +55,6 @@ PARTS = ("gravity, damping, contacts' set-up, into the lanes", "joints: set-up",
  P_SENSE) = range(len(PARTS))
 NOT_TIMED = np.zeros(0, dtype=np.uint64)
 """``spent`` of a group run that is not being timed."""
-
-
-class Batch(NamedTuple):
-    """What every group of a batch reads (and writes into: ``trace``, its rows of ``work``)."""
-
-    system: System
-    ctrl: Controllers
-    params: Params
-    noise: np.ndarray  # noise_table(config)
-    seeds: np.ndarray  # (B,) uint64
-    n_steps: int
-    trace: Trace
-    work: Work
-    rays: np.ndarray  # lidar_rays(params)
 
 
 @njit(inline="always")
@@ -246,8 +228,7 @@ def control_steps(batch, group):
         going = 0
         for i in range(n):
             b = running[i]
-            if after_physics(k, b, batch.system, batch.ctrl, params, batch.noise,
-                             batch.seeds[b], batch.trace, _lane(batch, b)):
+            if after_physics(k, b, batch, _lane(batch, b)):
                 running[going] = b
                 going += 1
         tick(spent, P_SENSE, clock, timed)

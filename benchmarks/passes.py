@@ -41,8 +41,9 @@ def _robot_by_robot(system, ctrl, params, noise, seeds, n_steps, trace):
     rays = lidar_rays(params)
     t = now()
     for b in range(seeds.shape[0]):
-        state = robot_state(system, b, params, robot_work(system, ctrl, params, b), rays)
-        episode(b, system, ctrl, params, noise, seeds[b], n_steps, trace, state)
+        work = robot_work(system, ctrl, params, b)
+        state = robot_state(system, b, params, work, rays)
+        episode(b, Batch(system, ctrl, params, noise, seeds, n_steps, trace, work, rays), state)
     return now() - t
 
 

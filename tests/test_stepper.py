@@ -19,6 +19,7 @@ from somite.sim.system import compile_system
 from somite.sim.terrain import hilly, parse_terrain
 from somite.tasks.episode import (
     WORK_FIELDS,
+    WORK_PARTS,
     Work,
     new_trace,
     new_work,
@@ -128,19 +129,25 @@ def test_the_work_arrays_follow_their_field_table():
     config = preset("original-code", duration=0.1)
     episode = Episode(genomes, "flat", config)
     system, ctrl, params = episode.system, episode.controllers, pack_params(config)
-    assert Work._fields == tuple(WORK_FIELDS)
+    assert Work._fields == tuple(WORK_PARTS)
     assert set(Scratch._fields) <= set(WORK_FIELDS)
     batch = new_work(system, ctrl, params)
     padded = work_sizes(system, ctrl, params)
     for b in range(len(bodies)):
         sizes = work_sizes(system, ctrl, params, b)
         row, own = work_row(batch, b, system, ctrl), robot_work(system, ctrl, params, b)
-        for name, (_, dtype) in WORK_FIELDS.items():
-            expected = work_shape(name, sizes)
-            assert getattr(row, name).shape == expected, name
-            assert getattr(own, name).shape == expected, name
-            assert getattr(batch, name).shape == (2, *work_shape(name, padded)), name
-            assert getattr(own, name).dtype == getattr(row, name).dtype == dtype, name
+        for part, fields in WORK_PARTS.items():
+            if part != "tally":
+                assert getattr(row, part)._fields == tuple(fields), part
+            for name, (_, dtype) in fields.items():
+                got_row, got_own, got_batch = (
+                    work.tally if part == "tally" else getattr(getattr(work, part), name)
+                    for work in (row, own, batch))
+                expected = work_shape(name, sizes)
+                assert got_row.shape == expected, name
+                assert got_own.shape == expected, name
+                assert got_batch.shape == (2, *work_shape(name, padded)), name
+                assert got_own.dtype == got_row.dtype == dtype, name
     assert work_sizes(system, ctrl, params, 0)["V"] != work_sizes(system, ctrl, params, 1)["V"]
 
 
@@ -160,10 +167,10 @@ def _alone_and_grouped(bodies, sizes, nan_robot=None):
     rays = lidar_rays(params)
     alone = new_trace(len(bodies), config.n_steps, system, True)
     work = new_work(system, ctrl, params, np.zeros)
-    start_batch(system, ctrl, params, alone, work, rays)
+    batch = Batch(system, ctrl, params, noise, seeds, config.n_steps, alone, work, rays)
+    start_batch(batch)
     for k in range(1, config.n_steps + 1):
-        step_batch(k, system, ctrl, params, noise, seeds, alone, work, rays,
-                   np.zeros((0, system.voxel_corners.shape[1])))
+        step_batch(k, batch, np.zeros((0, system.voxel_corners.shape[1])))
     runs = []
     for size in sizes:
         first, count = groups(system, size, threads=1)

@@ -28,7 +28,7 @@ if "NUMBA_SLP_VECTORIZE" not in os.environ:
     os.environ["NUMBA_SLP_VECTORIZE"] = "1"
     config.SLP_VECTORIZE = 1
 
-_OPTIONS = {"cache": True, "fastmath": False, "error_model": "numpy", "nogil": True}
+OPTIONS = {"cache": True, "fastmath": False, "error_model": "numpy", "nogil": True}
 
 
 def uncounted(function):
@@ -42,7 +42,7 @@ def uncounted(function):
 
 def njit(*args, **kwargs):
     """``numba.njit`` with somite's options; ``parallel=True`` may be passed for prange kernels."""
-    options = {**_OPTIONS, **kwargs}
+    options = {**OPTIONS, **kwargs}
     if args and callable(args[0]):
         return numba.njit(**options)(args[0])
     return numba.njit(**options)
@@ -60,7 +60,12 @@ def device_twin(kernel):
     names = dict(source.__globals__)
     for name in source.__code__.co_names:
         value = names.get(name)
-        if isinstance(value, CPUDispatcher):
+        # A phase of the physics step (sim/step.py) resolves by the solver's type on the CPU;
+        # on the device, where a thread runs one robot, it is that robot's implementation.
+        on_device = getattr(value, "on_device", None)
+        if on_device is not None:
+            names[name] = device_twin(on_device)
+        elif isinstance(value, CPUDispatcher):
             names[name] = device_twin(value)
     twin = types.FunctionType(source.__code__, names, source.__name__, source.__defaults__,
                               source.__closure__)

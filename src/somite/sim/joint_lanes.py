@@ -86,9 +86,9 @@ def give(lanes, g, pos, vel, cos, sin):
 def start_joints(lanes, params):
     """The joints of every lane set up for this step and warm-started."""
     omega = 2.0 * math.pi * params.spring_hz
-    start_springs(lanes.ends, lanes.anchor, lanes.rest, lanes.spring, lanes.pos, lanes.vel,
-                  lanes.cos, lanes.sin, lanes.inv_mass, lanes.inv_inertia, params.dt, omega,
-                  params.damping_ratio)
+    start_springs(lanes.ends, lanes.anchor, lanes.rest, lanes.spring,
+                  (lanes.pos, lanes.vel, lanes.cos, lanes.sin), (lanes.inv_mass, lanes.inv_inertia),
+                  (params.dt, omega, params.damping_ratio))
     start_ropes(lanes.rope_ends, lanes.rope, lanes.pos, lanes.vel, lanes.inv_mass,
                 lanes.inv_inertia)
     start_welds(lanes.weld_ends, lanes.weld_anchor, lanes.weld, lanes.vel, lanes.cos,

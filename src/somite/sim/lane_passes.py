@@ -51,8 +51,13 @@ DONE, CONTACTS_HELD, ROPES_HELD, WELDS_HELD = range(4)
 
 
 @uncounted
-def start_springs(ends, anchor, rest, work, pos, vel, cos, sin, inv_mass, inv_inertia, dt, omega, damping_ratio):
-    """Each spring set up for this step and warm-started (``physics.spring_setup``)."""
+def start_springs(ends, anchor, rest, work, state, masses, terms):
+    """Each spring set up for this step and warm-started (``physics.spring_setup``):
+    ``state`` = (pos, vel, cos, sin), ``masses`` = (inv_mass, inv_inertia), ``terms`` = (dt,
+    omega, damping_ratio)."""
+    pos, vel, cos, sin = state
+    inv_mass, inv_inertia = masses
+    dt, omega, damping_ratio = terms
     for m in range(ends.shape[0]):
         a = ends[m, 0]
         b = ends[m, 1]

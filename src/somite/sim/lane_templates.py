@@ -36,14 +36,16 @@ _PASSES: list[str] = []
 
 def _pass(name: str, args: str, joint: list[str], load: list[str], compute: list[str],
           store: list[str], before: list[str] = (), after: list[str] = (),
-          loop: tuple[str, ...] = _JOINTS, doc: str = "") -> None:
-    """Pass ``name(args)``: each line of ``before`` for every lane; then for each joint m of
-    ``ends`` (or each item of another ``loop``) ``joint`` once, then each line of ``load``,
-    ``compute`` and ``store`` for every lane in turn; then ``after`` for every lane."""
+          loop: tuple[str, ...] = _JOINTS, doc: str = "", unpack: tuple[str, ...] = ()) -> None:
+    """Pass ``name(args)``: the lines of ``unpack`` once; each line of ``before`` for every
+    lane; then for each joint m of ``ends`` (or each item of another ``loop``) ``joint`` once,
+    then each line of ``load``, ``compute`` and ``store`` for every lane in turn; then
+    ``after`` for every lane."""
     # Called, not inlined: a pass is long enough that a call costs nothing, and each is
     # compiled once (inlining its eight copies of the arithmetic into every caller cost a
     # minute of compiling).
     lines = ["", "", "@uncounted", f"def {name}({args}):", f'    """{doc}"""']
+    lines += ["    " + line for line in unpack]
     lines += ["    " + line.format(l=lane) for line in before for lane in range(LANES)]
     lines += ["    " + loop[0]] + ["        " + line for line in loop[1:]]
     lines += ["        " + line for line in joint]
@@ -64,8 +66,7 @@ _NEW = "a0_{l}, a1_{l}, a2_{l}, b0_{l}, b1_{l}, b2_{l} = "
 _OLD = "a0_{l}, a1_{l}, a2_{l}, b0_{l}, b1_{l}, b2_{l}"
 
 _pass(
-    "start_springs", "ends, anchor, rest, work, pos, vel, cos, sin, inv_mass, inv_inertia, dt, "
-    "omega, damping_ratio",
+    "start_springs", "ends, anchor, rest, work, state, masses, terms",
     _MASSES + ["pa = pos[a]", "pb = pos[b]", "ca = cos[a]", "sa = sin[a]", "cb = cos[b]",
                "sb = sin[b]", "oax = anchor[m, 0]", "oay = anchor[m, 1]", "obx = anchor[m, 2]",
                "oby = anchor[m, 3]"],
@@ -84,7 +85,11 @@ _pass(
      "w[J_RBY, {l}] = rby_{l}", "w[J_NX, {l}] = nx_{l}", "w[J_NY, {l}] = ny_{l}",
      "w[J_MASS, {l}] = mass_{l}", "w[J_GAMMA, {l}] = gamma_{l}", "w[J_BIAS, {l}] = bias_{l}"]
     + _STORE_VELOCITIES,
-    doc="""Each spring set up for this step and warm-started (``physics.spring_setup``).""")
+    doc="""Each spring set up for this step and warm-started (``physics.spring_setup``):
+    ``state`` = (pos, vel, cos, sin), ``masses`` = (inv_mass, inv_inertia), ``terms`` = (dt,
+    omega, damping_ratio).""",
+    unpack=("pos, vel, cos, sin = state", "inv_mass, inv_inertia = masses",
+            "dt, omega, damping_ratio = terms"))
 
 _pass(
     "solve_springs", "ends, work, vel, inv_mass, inv_inertia", _MASSES,

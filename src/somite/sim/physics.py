@@ -27,10 +27,19 @@ simulator"; BENCHMARKS.md, "Fidelity".
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
 
 from .._jit import njit, uncounted
+from . import step as order
 from .config import BLOCK_SIDE, VOXEL_SIDE
+from .step import implements
+from .step import step as physics_step
 from .trig import sincos
+
+if TYPE_CHECKING:
+    from .robot import Ground, Robot, Scratch
 
 HALF_BLOCK = BLOCK_SIDE / 2
 BLOCK_REACH = HALF_BLOCK * math.sqrt(2.0)
@@ -161,9 +170,13 @@ def relative(a0, a1, a2, b0, b1, b2, rax, ray, rbx, rby):
 
 
 @njit(inline="always")
-def push(vel, a, b, rax, ray, rbx, rby, jx, jy, inv_mass, inv_inertia):
-    """Impulse (jx, jy) on body a at offset ra, its opposite on body b at rb (b < 0: the
-    ground). Also moves positions: ``vel`` may be ``pos``, the same arithmetic."""
+def push(vel, a, b, r, j, masses):
+    """Impulse ``j`` = (jx, jy) on body a at offset ra, its opposite on body b at rb (b < 0:
+    the ground); ``r`` = (rax, ray, rbx, rby), ``masses`` = (inv_mass, inv_inertia). Also moves
+    positions: ``vel`` may be ``pos``, the same arithmetic."""
+    rax, ray, rbx, rby = r
+    jx, jy = j
+    inv_mass, inv_inertia = masses
     vel[a, 0] += jx * inv_mass[a]
     vel[a, 1] += jy * inv_mass[a]
     vel[a, 2] += inv_inertia[a] * (rax * jy - ray * jx)
@@ -226,18 +239,25 @@ def spring_impulse(rax, ray, rbx, rby, nx, ny, mass, bias, gamma, impulse, a0, a
 
 
 @njit(inline="always")
-def push_pair(vel, a, b, rax, ray, rbx, rby, jx, jy, ima, iia, imb, iib):
-    """:func:`pushed` on the rows a and b of ``vel``."""
+def push_pair(vel, a, b, r, j, m):
+    """:func:`pushed` on the rows a and b of ``vel``: ``r`` = (rax, ray, rbx, rby), ``j`` =
+    (jx, jy), ``m`` = (ima, iia, imb, iib)."""
+    rax, ray, rbx, rby = r
+    jx, jy = j
+    ima, iia, imb, iib = m
     (vel[a, 0], vel[a, 1], vel[a, 2], vel[b, 0], vel[b, 1], vel[b, 2]) = pushed(
         vel[a, 0], vel[a, 1], vel[a, 2], vel[b, 0], vel[b, 1], vel[b, 2], rax, ray, rbx, rby, jx,
         jy, ima, iia, imb, iib)
 
 
 @njit(inline="always")
-def spring_setup(s, a, b, anchor, rest, work, pos, vel, cos, sin, inv_mass, inv_inertia, dt,
-                 omega, damping_ratio):
-    """Set up spring s (ends a, b) for this step (:func:`spring_terms`) and apply last step's
-    impulse."""
+def spring_setup(s, a, b, robot, scratch, pos, vel, terms):
+    """Set up spring s (ends a, b) for this step (:func:`spring_terms`; ``terms``: dt, omega,
+    damping ratio) and apply last step's impulse."""
+    anchor, rest, work, cos, sin = robot.anchor, scratch.rest, scratch.spring, scratch.cos, \
+        scratch.sin
+    inv_mass, inv_inertia = robot.inv_mass, robot.inv_inertia
+    dt, omega, damping_ratio = terms
     ima, iia, imb, iib = inv_mass[a], inv_inertia[a], inv_mass[b], inv_inertia[b]
     rax, ray = turned(a, anchor[s, 0], anchor[s, 1], cos, sin)
     rbx, rby = turned(b, anchor[s, 2], anchor[s, 3], cos, sin)
@@ -254,7 +274,7 @@ def spring_setup(s, a, b, anchor, rest, work, pos, vel, cos, sin, inv_mass, inv_
     work[s, J_GAMMA] = gamma
     work[s, J_BIAS] = bias
     j = work[s, J_IMPULSE]
-    push_pair(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, ima, iia, imb, iib)
+    push_pair(vel, a, b, (rax, ray, rbx, rby), (nx * j, ny * j), (ima, iia, imb, iib))
 
 
 @njit(inline="always")
@@ -270,8 +290,8 @@ def spring_solve(s, a, b, work, vel, inv_mass, inv_inertia):
                        work[s, J_GAMMA], work[s, J_IMPULSE], vel[a, 0], vel[a, 1], vel[a, 2],
                        vel[b, 0], vel[b, 1], vel[b, 2])
     work[s, J_IMPULSE] += j
-    push_pair(vel, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass[a], inv_inertia[a],
-              inv_mass[b], inv_inertia[b])
+    push_pair(vel, a, b, (rax, ray, rbx, rby), (nx * j, ny * j),
+              (inv_mass[a], inv_inertia[a], inv_mass[b], inv_inertia[b]))
 
 
 @njit(inline="always")
@@ -280,9 +300,8 @@ def start_springs(robot, scratch, pos, vel, params):
     ends = robot.ends
     omega = 2.0 * math.pi * params.spring_hz
     for s in range(robot.n_springs):
-        spring_setup(s, ends[s, 0], ends[s, 1], robot.anchor, scratch.rest, scratch.spring, pos,
-                     vel, scratch.cos, scratch.sin, robot.inv_mass, robot.inv_inertia,
-                     params.dt, omega, params.damping_ratio)
+        spring_setup(s, ends[s, 0], ends[s, 1], robot, scratch, pos, vel,
+                     (params.dt, omega, params.damping_ratio))
 
 
 @njit(inline="always")
@@ -311,8 +330,8 @@ def rope_setup(r, a, b, work, pos, vel, inv_mass, inv_inertia):
         work[r, R_MASS] = 1.0 / (inv_mass[a] + inv_mass[b])
         work[r, R_ACTIVE] = 1.0
         j = work[r, R_IMPULSE]
-        push_pair(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, inv_mass[a], inv_inertia[a],
-                  inv_mass[b], inv_inertia[b])
+        push_pair(vel, a, b, (0.0, 0.0, 0.0, 0.0), (nx * j, ny * j),
+                  (inv_mass[a], inv_inertia[a], inv_mass[b], inv_inertia[b]))
     else:
         work[r, R_ACTIVE] = 0.0
         work[r, R_IMPULSE] = 0.0
@@ -326,8 +345,8 @@ def rope_solve(r, a, b, work, vel, inv_mass, inv_inertia):
     ny = work[r, R_NY]
     j = rope_impulse(nx, ny, work[r, R_MASS], vel[a, 0], vel[a, 1], vel[b, 0], vel[b, 1])
     work[r, R_IMPULSE] += j
-    push_pair(vel, a, b, 0.0, 0.0, 0.0, 0.0, nx * j, ny * j, inv_mass[a], inv_inertia[a],
-              inv_mass[b], inv_inertia[b])
+    push_pair(vel, a, b, (0.0, 0.0, 0.0, 0.0), (nx * j, ny * j),
+              (inv_mass[a], inv_inertia[a], inv_mass[b], inv_inertia[b]))
 
 
 @njit
@@ -352,7 +371,7 @@ def rope_fix(a, b, pos, inv_mass, inv_inertia) -> bool:
     jx, jy, slack, held = rope_fixed(pos[a, 0], pos[a, 1], pos[b, 0], pos[b, 1], inv_mass[a],
                                      inv_mass[b])
     if not slack:
-        push(pos, a, b, 0.0, 0.0, 0.0, 0.0, jx, jy, inv_mass, inv_inertia)
+        push(pos, a, b, (0.0, 0.0, 0.0, 0.0), (jx, jy), (inv_mass, inv_inertia))
     return held
 
 
@@ -423,8 +442,12 @@ def weld_impulse(rbx, rby, ima, iia, imb, iib, a0, a1, a2, b0, b1, b2):
 
 
 @njit(inline="always")
-def weld_push(state, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia):
-    """:func:`weld_pushed` on the rows a and b of ``state``."""
+def weld_push(state, a, b, rb, j, masses):
+    """:func:`weld_pushed` on the rows a and b of ``state``: ``rb`` = (rbx, rby), ``j`` =
+    (jx, jy, jz), ``masses`` = (inv_mass, inv_inertia)."""
+    rbx, rby = rb
+    jx, jy, jz = j
+    inv_mass, inv_inertia = masses
     (state[a, 0], state[a, 1], state[a, 2], state[b, 0], state[b, 1], state[b, 2]) = \
         weld_pushed(state[a, 0], state[a, 1], state[a, 2], state[b, 0], state[b, 1],
                     state[b, 2], rbx, rby, jx, jy, jz, inv_mass[a], inv_inertia[a], inv_mass[b],
@@ -432,12 +455,13 @@ def weld_push(state, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia):
 
 
 @njit(inline="always")
-def weld_setup(q, a, b, anchor, work, vel, cos, sin, inv_mass, inv_inertia):
-    rbx, rby = turned(b, anchor[q, 0], anchor[q, 1], cos, sin)
+def weld_setup(q, a, b, robot, scratch, vel):
+    anchor, work = robot.weld_anchor, scratch.weld
+    rbx, rby = turned(b, anchor[q, 0], anchor[q, 1], scratch.cos, scratch.sin)
     work[q, W_RBX] = rbx
     work[q, W_RBY] = rby
-    weld_push(vel, a, b, rbx, rby, work[q, W_JX], work[q, W_JY], work[q, W_JZ], inv_mass,
-              inv_inertia)
+    weld_push(vel, a, b, (rbx, rby), (work[q, W_JX], work[q, W_JY], work[q, W_JZ]),
+              (robot.inv_mass, robot.inv_inertia))
 
 
 @njit(inline="always")
@@ -450,7 +474,7 @@ def weld_solve(q, a, b, work, vel, inv_mass, inv_inertia):
     work[q, W_JX] += jx
     work[q, W_JY] += jy
     work[q, W_JZ] += jz
-    weld_push(vel, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia)
+    weld_push(vel, a, b, (rbx, rby), (jx, jy, jz), (inv_mass, inv_inertia))
 
 
 @njit
@@ -470,14 +494,15 @@ def weld_fixed(pa0, pa1, pa2, pb0, pb1, pb2, rbx, rby, ima, iia, imb, iib):
 
 
 @njit(inline="always")
-def weld_fix(q, a, b, anchor, pos, cos, sin, inv_mass, inv_inertia) -> bool:
+def weld_fix(q, a, b, robot, pos, cos, sin) -> bool:
     """One position pass over weld q between a and b (:func:`weld_fixed`); whether it holds.
     Updates the rotations it changes."""
+    anchor, inv_mass, inv_inertia = robot.weld_anchor, robot.inv_mass, robot.inv_inertia
     rbx, rby = turned(b, anchor[q, 0], anchor[q, 1], cos, sin)
     jx, jy, jz, held = weld_fixed(pos[a, 0], pos[a, 1], pos[a, 2], pos[b, 0], pos[b, 1],
                                   pos[b, 2], rbx, rby, inv_mass[a], inv_inertia[a],
                                   inv_mass[b], inv_inertia[b])
-    weld_push(pos, a, b, rbx, rby, jx, jy, jz, inv_mass, inv_inertia)
+    weld_push(pos, a, b, (rbx, rby), (jx, jy, jz), (inv_mass, inv_inertia))
     cos[a], sin[a] = sincos(pos[a, 2])
     cos[b], sin[b] = sincos(pos[b, 2])
     return held
@@ -487,8 +512,7 @@ def weld_fix(q, a, b, anchor, pos, cos, sin, inv_mass, inv_inertia) -> bool:
 def start_welds(robot, scratch, vel):
     ends = robot.weld_ends
     for q in range(robot.n_welds):
-        weld_setup(q, ends[q, 0], ends[q, 1], robot.weld_anchor, scratch.weld, vel, scratch.cos,
-                   scratch.sin, robot.inv_mass, robot.inv_inertia)
+        weld_setup(q, ends[q, 0], ends[q, 1], robot, scratch, vel)
 
 
 @njit(inline="always")
@@ -505,8 +529,7 @@ def fix_welds(robot, pos, cos, sin) -> bool:
     ends = robot.weld_ends
     held = True
     for q in range(robot.n_welds):
-        if not weld_fix(q, ends[q, 0], ends[q, 1], robot.weld_anchor, pos, cos, sin,
-                        robot.inv_mass, robot.inv_inertia):
+        if not weld_fix(q, ends[q, 0], ends[q, 1], robot, pos, cos, sin):
             held = False
     return held
 
@@ -570,8 +593,8 @@ def start_contacts(robot, scratch, pos, vel, params):
         ny = c[k, C_NY]
         jn = c[k, C_JN]
         jt = c[k, C_JT]
-        push(vel, a, b, c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY],
-             nx * jn + ny * jt, ny * jn - nx * jt, inv_mass, inv_inertia)
+        push(vel, a, b, (c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY]),
+             (nx * jn + ny * jt, ny * jn - nx * jt), (inv_mass, inv_inertia))
 
 
 @njit(inline="always")
@@ -601,8 +624,8 @@ def solve_normal(c, k, vel, inv_mass, inv_inertia):
     j0 = c[k, C_JN]
     c[k, C_JN] = max(j0 + j, 0.0)
     j = c[k, C_JN] - j0
-    push(vel, a, b, c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY], nx * j, ny * j,
-         inv_mass, inv_inertia)
+    push(vel, a, b, (c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY]), (nx * j, ny * j),
+         (inv_mass, inv_inertia))
 
 
 @njit(inline="always")
@@ -639,10 +662,10 @@ def solve_pair(c, k, vel, inv_mass, inv_inertia):
                     return
     d1 = x1 - a1
     d2 = x2 - a2
-    push(vel, a, b, c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY], nx * d1, ny * d1,
-         inv_mass, inv_inertia)
-    push(vel, a, b, c[k + 1, C_RAX], c[k + 1, C_RAY], c[k + 1, C_RBX], c[k + 1, C_RBY],
-         nx * d2, ny * d2, inv_mass, inv_inertia)
+    push(vel, a, b, (c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY]), (nx * d1, ny * d1),
+         (inv_mass, inv_inertia))
+    push(vel, a, b, (c[k + 1, C_RAX], c[k + 1, C_RAY], c[k + 1, C_RBX], c[k + 1, C_RBY]),
+         (nx * d2, ny * d2), (inv_mass, inv_inertia))
     c[k, C_JN] = x1
     c[k + 1, C_JN] = x2
 
@@ -672,8 +695,8 @@ def solve_contacts(robot, scratch, vel):
             j0 = c[i, C_JT]
             c[i, C_JT] = max(-limit, min(j0 + j, limit))
             j = c[i, C_JT] - j0
-            push(vel, a, b, c[i, C_RAX], c[i, C_RAY], c[i, C_RBX], c[i, C_RBY], tx * j, ty * j,
-                 inv_mass, inv_inertia)
+            push(vel, a, b, (c[i, C_RAX], c[i, C_RAY], c[i, C_RBX], c[i, C_RBY]),
+                 (tx * j, ty * j), (inv_mass, inv_inertia))
         if count == 2 and c[k, C_LIVE] != 0.0 and c[k + 1, C_LIVE] != 0.0:
             solve_pair(c, k, vel, inv_mass, inv_inertia)
         else:
@@ -722,7 +745,7 @@ def fix_contacts(robot, scratch, pos, cos, sin) -> bool:
         j0 = c[k, C_JP]
         c[k, C_JP] = max(j0 + j, 0.0)
         j = c[k, C_JP] - j0
-        push(pos, a, b, rax, ray, rbx, rby, nx * j, ny * j, inv_mass, inv_inertia)
+        push(pos, a, b, (rax, ray, rbx, rby), (nx * j, ny * j), (inv_mass, inv_inertia))
         cos[a], sin[a] = sincos(pos[a, 2])
         if b >= 0:
             cos[b], sin[b] = sincos(pos[b, 2])
@@ -934,10 +957,12 @@ def manifold(one, two, nx, ny, clipped):
 
 
 @njit(inline="always")
-def add_contacts(robot, scratch, pos, a, b, partner, one, two, mu) -> int:
-    """The contacts of body a (polygon ``two``) with body b (polygon ``one``; b < 0: the
-    ground, ``partner`` its segment, else ``partner`` = b) into the contact table, warm-started
-    from last step's point of the same feature; returns how many."""
+def add_contacts(robot, scratch, pos, a, b, partner, polygons, mu) -> int:
+    """The contacts of body a (polygon ``two`` of ``polygons`` = (one, two)) with body b
+    (polygon ``one``; b < 0: the ground, ``partner`` its segment, else ``partner`` = b) into the
+    contact table, warm-started from last step's point of the same feature; returns how
+    many."""
+    one, two = polygons
     overlap, nx, ny = deepest_axis(one, two)
     if overlap <= 0.0:
         return 0
@@ -1030,7 +1055,8 @@ def find_contacts(robot, ground, scratch, pos, params):
         while i < n - 1 and xs[i] < hi_x:
             if lo_y < max(ys[i], ys[i + 1]) and not above_segment(xs, ys, i, two):
                 ground_polygon(xs, ys, i, one)
-                if add_contacts(robot, scratch, pos, p, -1, i, one, two, params.friction) > 0:
+                if add_contacts(robot, scratch, pos, p, -1, i, (one, two),
+                                params.friction) > 0:
                     scratch.contact[p] = True
             i += 1
     segment[robot.n_points] = left
@@ -1043,7 +1069,7 @@ def find_contacts(robot, ground, scratch, pos, params):
             continue
         block_polygon(a, pos, cos, sin, one)
         block_polygon(b, pos, cos, sin, two)
-        add_contacts(robot, scratch, pos, b, a, a, one, two, params.block_friction)
+        add_contacts(robot, scratch, pos, b, a, a, (one, two), params.block_friction)
 
 
 @njit(inline="always")
@@ -1085,41 +1111,81 @@ def positions(robot, scratch, pos, vel, params):
         scratch.cos[p], scratch.sin[p] = sincos(pos[p, 2])
 
 
+class Alone(NamedTuple):
+    """One robot as a solver of :func:`somite.sim.step.step`: its arrays, as every function
+    here takes them (``pos``, ``vel``: its bodies' state (P, 3))."""
+
+    robot: Robot
+    ground: Ground
+    scratch: Scratch
+    pos: np.ndarray
+    vel: np.ndarray
+
+
+@implements(order.begin, Alone, on_device=True)
 @njit(inline="always")
-def step(robot, ground, scratch, pos, vel, params):
-    """One physics step of dt = ``params.dt`` (dyn4j's order; module docstring)."""
-    velocities(robot, vel, params)
-    start_contacts(robot, scratch, pos, vel, params)
-    start_springs(robot, scratch, pos, vel, params)
-    start_ropes(robot, scratch, pos, vel)
-    start_welds(robot, scratch, vel)
-    for _ in range(params.velocity_iterations):
-        solve_springs(robot, scratch, vel)
-        solve_ropes(robot, scratch, vel)
-        solve_welds(robot, scratch, vel)
-        solve_contacts(robot, scratch, vel)
-    positions(robot, scratch, pos, vel, params)
-    for _ in range(params.position_iterations):
-        contacts_held = fix_contacts(robot, scratch, pos, scratch.cos, scratch.sin)
-        ropes_held = fix_ropes(robot, pos)
-        welds_held = fix_welds(robot, pos, scratch.cos, scratch.sin)
-        if contacts_held and ropes_held and welds_held:
-            break
-    find_contacts(robot, ground, scratch, pos, params)
+def _begin(solver, params):
+    velocities(solver.robot, solver.vel, params)
+    start_contacts(solver.robot, solver.scratch, solver.pos, solver.vel, params)
+
+
+@implements(order.start_joints, Alone, on_device=True)
+@njit(inline="always")
+def _start_joints(solver, params):
+    start_springs(solver.robot, solver.scratch, solver.pos, solver.vel, params)
+    start_ropes(solver.robot, solver.scratch, solver.pos, solver.vel)
+    start_welds(solver.robot, solver.scratch, solver.vel)
+
+
+@implements(order.solve_joints, Alone, on_device=True)
+@njit(inline="always")
+def _solve_joints(solver, params):
+    solve_springs(solver.robot, solver.scratch, solver.vel)
+    solve_ropes(solver.robot, solver.scratch, solver.vel)
+    solve_welds(solver.robot, solver.scratch, solver.vel)
+
+
+@implements(order.solve_contacts, Alone, on_device=True)
+@njit(inline="always")
+def _solve_contacts(solver, params):
+    solve_contacts(solver.robot, solver.scratch, solver.vel)
+
+
+@implements(order.move, Alone, on_device=True)
+@njit(inline="always")
+def _move(solver, params):
+    positions(solver.robot, solver.scratch, solver.pos, solver.vel, params)
+
+
+@implements(order.fix_positions, Alone, on_device=True)
+@njit(inline="always")
+def _fix_positions(solver, params):
+    contacts_held = fix_contacts(solver.robot, solver.scratch, solver.pos, solver.scratch.cos,
+                                 solver.scratch.sin)
+    ropes_held = fix_ropes(solver.robot, solver.pos)
+    welds_held = fix_welds(solver.robot, solver.pos, solver.scratch.cos, solver.scratch.sin)
+    return contacts_held and ropes_held and welds_held
+
+
+@implements(order.end, Alone, on_device=True)
+@njit(inline="always")
+def _end(solver, params):
+    find_contacts(solver.robot, solver.ground, solver.scratch, solver.pos, params)
 
 
 @uncounted
 def advance(robot, ground, scratch, pos, vel, params, substeps):
-    """One control step of physics: ``substeps`` steps under the rest lengths of
-    ``scratch.rest``, from any state (the bodies' rotations are taken afresh).
+    """One control step of physics: ``substeps`` steps (:func:`somite.sim.step.step`) under the
+    rest lengths of ``scratch.rest``, from any state (the bodies' rotations are taken afresh).
 
     Compiled without Numba's reference counting (``_jit.uncounted``: nothing here allocates), as
     every field read from the per-robot tuples would otherwise cost an atomic increment and
     decrement on each step.
     """
     turn(robot.n_points, pos, scratch.cos, scratch.sin)
+    alone = Alone(robot, ground, scratch, pos, vel)
     for _ in range(substeps):
-        step(robot, ground, scratch, pos, vel, params)
+        physics_step(alone, params)
 
 
 @njit(inline="always")

@@ -126,32 +126,25 @@ def ground_view(system, b) -> Ground:
 
 @njit
 def new_scratch(robot) -> Scratch:
+    """A :class:`Scratch` of its own for ``robot``, set to the start of an episode
+    (:func:`reset_scratch`)."""
     capacity = contact_capacity(robot.n_points, robot.n_pairs)
-    return scratch_in(
-        robot, np.empty(robot.n_springs), np.empty(robot.n_points), np.empty(robot.n_points),
+    scratch = Scratch(
+        np.empty(robot.n_springs), np.empty(robot.n_points), np.empty(robot.n_points),
         np.empty((robot.n_springs, N_SPRING_COLUMNS)), np.empty((robot.n_ropes, N_ROPE_COLUMNS)),
         np.empty((robot.n_welds, N_WELD_COLUMNS)), np.empty((capacity, N_CONTACT_COLUMNS)),
         np.empty((capacity, N_CONTACT_COLUMNS)), np.empty(2, dtype=np.int64),
         np.empty((2, 4, 4)), np.empty((2, 4)), np.empty(robot.n_points, dtype=np.bool_),
         np.empty(robot.n_points + 1, dtype=np.int64),
     )
-
-
-@njit
-def scratch_in(robot, rest, cos, sin, spring, rope, weld, contacts, previous, counts, polygon,
-               clipped, contact, segment) -> Scratch:
-    """A :class:`Scratch` over supplied arrays (sizes as its fields'), set to the start of an
-    episode: no impulses, bodies unrotated, no contact. The rest lengths are set by the
-    episode before its first step."""
-    scratch = Scratch(rest, cos, sin, spring, rope, weld, contacts, previous, counts, polygon,
-                      clipped, contact, segment)
     reset_scratch(robot, scratch)
     return scratch
 
 
 @njit
 def reset_scratch(robot, scratch) -> None:
-    """Set ``scratch`` to the start of an episode (see :func:`scratch_in`)."""
+    """Set ``scratch`` to the start of an episode: no impulses, bodies unrotated, no contact
+    (the rest lengths are set by the episode before its first step)."""
     rest = scratch.rest
     spring = scratch.spring
     rope = scratch.rope

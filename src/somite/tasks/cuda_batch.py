@@ -21,7 +21,7 @@ from numba import config, cuda
 
 from .._jit import device_twin
 from ..sim.sensors import lidar_rays
-from .episode import Controllers, Trace, episode, new_work, robot_state, work_row
+from .episode import Batch, Controllers, Trace, episode, new_work, robot_state, work_row
 
 THREADS_PER_BLOCK = 64
 """Robots per thread block: small, since a thread's robot keeps many registers busy."""
@@ -81,12 +81,14 @@ _episode = device_twin(episode)
 
 
 @cuda.jit
-def _run_batch(system, ctrl, params, noise, seeds, n_steps, trace, work, rays):
+def _run_batch(batch):
     b = cuda.grid(1)
-    if b >= seeds.shape[0]:
+    if b >= batch.seeds.shape[0]:
         return
-    state = _robot_state(system, b, params, _work_row(work, b, system, ctrl), rays)
-    _episode(b, system, ctrl, params, noise, seeds[b], n_steps, trace, state)
+    system, params = batch.system, batch.params
+    state = _robot_state(system, b, params, _work_row(batch.work, b, system, batch.ctrl),
+                         batch.rays)
+    _episode(b, batch, state)
 
 
 def _robot_major_empty(shape: tuple, dtype):
@@ -110,10 +112,10 @@ def run_batch(system, ctrl: Controllers, params, noise, seeds, n_steps: int,
     # and the copies back need no transposing.
     device_trace = _upload(trace, robot_axis=False)
     blocks = (n + THREADS_PER_BLOCK - 1) // THREADS_PER_BLOCK
-    _run_batch[blocks, THREADS_PER_BLOCK](
+    _run_batch[blocks, THREADS_PER_BLOCK](Batch(
         device_system, _upload(ctrl), params, cuda.to_device(noise), cuda.to_device(seeds),
         n_steps, device_trace, new_work(system, ctrl, params, _robot_major_empty),
         cuda.to_device(lidar_rays(params)),
-    )
+    ))
     for host, device in zip(trace, device_trace):
         device.copy_to_host(host)

@@ -10,7 +10,7 @@ robot's :class:`RobotState`; the CPU kernel (:mod:`somite.tasks.lanes`, which sp
 step into :func:`before_physics`, the physics and :func:`after_physics` to advance a group of
 robots together), the CUDA kernel (:mod:`somite.tasks.cuda_batch`) and the Python stepper
 (:class:`somite.tasks.stepper.Episode`) all run these functions. The state's arrays
-(:class:`Work`) are described once, in :data:`WORK_FIELDS`.
+(:class:`Work`) are described once, in :data:`WORK_PARTS`.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numpy as np
 from .._jit import njit, uncounted
 from ..brain.kernels import graph_step
 from ..brain.openloop import sine_actuation, table_actuation
-from ..sim.config import CONTROL_HZ
+from ..sim.config import CONTROL_HZ, Params
 from ..sim.physics import (
     N_CONTACT_COLUMNS,
     N_ROPE_COLUMNS,
@@ -47,6 +47,7 @@ from ..sim.robot import (
     robot_over,
 )
 from ..sim.sensors import angle_mode, sense, update_histories, voxel_state
+from ..sim.system import System
 
 ZERO, SINE, TABLE, GRAPH = 0, 1, 2, 3
 CONTROLLER_KINDS = {"zero": ZERO, "sine": SINE, "table": TABLE, "graph": GRAPH}
@@ -65,47 +66,95 @@ SETTLE_STEPS = 120
 T_FASTEST, T_SMALLEST, T_NON_FINITE, T_X_LO, T_X_HI = range(5)
 N_TALLY = 5
 
-WORK_FIELDS = {
-    # robot_in's derived arrays
-    "inv_mass": (("P",), np.float64),
-    "inv_inertia": (("P",), np.float64),
-    # the fields of Scratch, in its order
-    "rest": (("S",), np.float64),
-    "cos": (("P",), np.float64),
-    "sin": (("P",), np.float64),
-    "spring": (("S", N_SPRING_COLUMNS), np.float64),
-    "rope": (("Y", N_ROPE_COLUMNS), np.float64),
-    "weld": (("W", N_WELD_COLUMNS), np.float64),
-    "contacts": (("C", N_CONTACT_COLUMNS), np.float64),
-    "previous": (("C", N_CONTACT_COLUMNS), np.float64),
-    "counts": ((2,), np.int64),
-    "polygon": ((2, 4, 4), np.float64),
-    "clipped": ((2, 4), np.float64),
-    "contact": (("P",), np.bool_),
-    "segment": (("P+1",), np.int64),
-    # the episode's own state
-    "body_pos": (("P", 3), np.float64),
-    "body_vel": (("P", 3), np.float64),
-    "pos": (("P", 2), np.float64),
-    "vel": (("P", 2), np.float64),
-    "voxels": (("V", 6), np.float64),
-    "touch_hist": (("V", "touch"), np.float64),
-    "vel_hist": (("V", "velocity", 2), np.float64),
-    "readings": (("R",), np.float64),
-    "actuation": (("V",), np.float64),
-    "h_prev": (("N",), np.float64),
-    "h_next": (("N",), np.float64),
-    "tally": ((N_TALLY,), np.float64),
+WORK_PARTS = {
+    "blocks": {  # the corner bodies and the voxel corners they carry
+        "inv_mass": (("P",), np.float64),
+        "inv_inertia": (("P",), np.float64),
+        "cos": (("P",), np.float64),
+        "sin": (("P",), np.float64),
+        "body_pos": (("P", 3), np.float64),
+        "body_vel": (("P", 3), np.float64),
+        "pos": (("P", 2), np.float64),
+        "vel": (("P", 2), np.float64),
+    },
+    "joints": {  # the springs' rest lengths, the joints' rows of the solver
+        "rest": (("S",), np.float64),
+        "spring": (("S", N_SPRING_COLUMNS), np.float64),
+        "rope": (("Y", N_ROPE_COLUMNS), np.float64),
+        "weld": (("W", N_WELD_COLUMNS), np.float64),
+    },
+    "collisions": {  # contact rows (this step's, last step's), the search's scratch
+        "contacts": (("C", N_CONTACT_COLUMNS), np.float64),
+        "previous": (("C", N_CONTACT_COLUMNS), np.float64),
+        "counts": ((2,), np.int64),
+        "polygon": ((2, 4, 4), np.float64),
+        "clipped": ((2, 4), np.float64),
+        "contact": (("P",), np.bool_),
+        "segment": (("P+1",), np.int64),
+    },
+    "senses": {  # the voxels' state, the sensors' windows, the readings
+        "voxels": (("V", 6), np.float64),
+        "touch_hist": (("V", "touch"), np.float64),
+        "vel_hist": (("V", "velocity", 2), np.float64),
+        "readings": (("R",), np.float64),
+    },
+    "brain": {  # the actuation in force, the controller's two node buffers
+        "actuation": (("V",), np.float64),
+        "h_prev": (("N",), np.float64),
+        "h_next": (("N",), np.float64),
+    },
+    "tally": {"tally": ((N_TALLY,), np.float64)},
 }
-"""The per-robot arrays of an episode: name -> (shape, dtype). A shape's names are one robot's
-counts (:func:`work_sizes`): P blocks, S springs, Y ropes, W welds, C contact rows
-(:func:`~somite.sim.robot.contact_capacity`), V voxels, R readings, N controller nodes, the
-sensors' ``touch`` and ``velocity`` windows. ``body_pos``, ``body_vel`` are the corner bodies'
-state (centre of mass and angle, their rates), ``pos``, ``vel`` the voxel corners that they carry;
-``tally`` holds T_*. :func:`robot_work` and :func:`work_row` follow this table (tested)."""
+"""The per-robot arrays of an episode, by what they hold: part -> name -> (shape, dtype). A
+shape's names are one robot's counts (:func:`work_sizes`): P blocks, S springs, Y ropes, W
+welds, C contact rows (:func:`~somite.sim.robot.contact_capacity`), V voxels, R readings, N
+controller nodes, the sensors' ``touch`` and ``velocity`` windows. ``body_pos``, ``body_vel``
+are the corner bodies' state (centre of mass and angle, their rates), ``pos``, ``vel`` the
+voxel corners that they carry; ``tally`` holds T_*. The physics reads its
+:class:`~somite.sim.robot.Scratch` from ``blocks``, ``joints`` and ``collisions``.
+:func:`robot_work` and :func:`work_row` follow this table (tested)."""
 
-Work = NamedTuple("Work", [(name, np.ndarray) for name in WORK_FIELDS])
-Work.__doc__ = "One robot's arrays of :data:`WORK_FIELDS` (or a batch's, robot axis first)."
+WORK_FIELDS = {name: spec for fields in WORK_PARTS.values() for name, spec in fields.items()}
+"""Every field of :data:`WORK_PARTS`, by name."""
+
+
+def _part(name: str, fields: dict) -> type:
+    part = NamedTuple(name, [(field, np.ndarray) for field in fields])
+    part.__doc__ = f"One robot's {name.lower()} arrays of :data:`WORK_PARTS` (or a batch's)."
+    return part
+
+
+Blocks = _part("Blocks", WORK_PARTS["blocks"])
+Joints = _part("Joints", WORK_PARTS["joints"])
+Collisions = _part("Collisions", WORK_PARTS["collisions"])
+Senses = _part("Senses", WORK_PARTS["senses"])
+BrainState = _part("BrainState", WORK_PARTS["brain"])
+
+
+class Work(NamedTuple):
+    """One robot's arrays of :data:`WORK_PARTS` (or a batch's, robot axis first), by part."""
+
+    blocks: Blocks
+    joints: Joints
+    collisions: Collisions
+    senses: Senses
+    brain: BrainState
+    tally: np.ndarray
+
+
+class Batch(NamedTuple):
+    """A batch's inputs, and what its episodes write into (``trace``, the rows of ``work``):
+    what every kernel over robots of the batch reads."""
+
+    system: System
+    ctrl: Controllers
+    params: Params
+    noise: np.ndarray  # noise_table(config)
+    seeds: np.ndarray  # (B,) uint64: each robot's sensor noise
+    n_steps: int
+    trace: Trace
+    work: Work
+    rays: np.ndarray  # lidar_rays(params)
 
 
 class RobotState(NamedTuple):
@@ -180,8 +229,10 @@ def new_work(system, ctrl: Controllers, params, empty=np.empty) -> Work:
     each field (numpy's for the host; the CUDA backend passes its own)."""
     sizes = work_sizes(system, ctrl, params)
     n = system.n_points.shape[0]
-    return Work(*(empty((n, *work_shape(name, sizes)), dtype)
-                  for name, (_, dtype) in WORK_FIELDS.items()))
+    parts = [[empty((n, *work_shape(name, sizes)), dtype) for name, (_, dtype) in fields.items()]
+             for fields in WORK_PARTS.values()]
+    return Work(Blocks(*parts[0]), Joints(*parts[1]), Collisions(*parts[2]), Senses(*parts[3]),
+                BrainState(*parts[4]), parts[5][0])
 
 
 def new_trace(n_robots: int, n_steps: int, system, record: bool) -> Trace:
@@ -237,16 +288,17 @@ def _column_tilt(n_voxels, voxel_x, x_lo, x_hi, voxels) -> float:
 
 
 @uncounted
-def _observe(k, robot, ground, n_points, mass, pos, vel, cos, sin, cx, cy, tilt, near, params,
-             out):
-    """Update the episode's diagnostics ``out`` (D_*) with control step ``k``; ``pos``,
-    ``vel``: the bodies' state, ``cos``, ``sin`` their rotations; ``near``: a terrain segment
-    near the robot."""
+def _observe(k, robot, ground, blocks, at, params, out):
+    """Update the episode's diagnostics ``out`` (D_*) with control step ``k``; ``blocks``: the
+    robot's :class:`Blocks`; ``at``: its centre of mass (x, y), tilt [deg] and a terrain
+    segment near it."""
     if k <= SETTLE_STEPS:
         return
-    gap = lowest_gap(robot, ground, pos, cos, sin, near)
+    cx, cy, tilt, near = at
+    mass, vel = robot.mass, blocks.body_vel
+    gap = lowest_gap(robot, ground, blocks.body_pos, blocks.cos, blocks.sin, near)
     total = vx = vy = 0.0
-    for p in range(n_points):
+    for p in range(robot.n_points):
         total += mass[p]
         vx += mass[p] * vel[p, 0]
         vy += mass[p] * vel[p, 1]
@@ -263,14 +315,17 @@ def _observe(k, robot, ground, n_points, mass, pos, vel, cos, sin, cx, cy, tilt,
 
 
 @uncounted
-def _record(b, step, n_points, n_voxels, n_readings, pos, contact, actuation, readings, trace):
-    for p in range(n_points):
+def _record(b, step, state, trace):
+    """Robot ``b``'s corners, contacts, actuation and readings into ``trace`` at ``step``."""
+    pos, contact = state.work.blocks.pos, state.scratch.contact
+    actuation, readings = state.work.brain.actuation, state.work.senses.readings
+    for p in range(state.robot.n_points):
         trace.pos[b, step, p, 0] = pos[p, 0]
         trace.pos[b, step, p, 1] = pos[p, 1]
         trace.contact[b, step, p] = contact[p]
-    for v in range(n_voxels):
+    for v in range(state.robot.n_voxels):
         trace.actuation[b, step, v] = actuation[v]
-    for r in range(n_readings):
+    for r in range(readings.shape[0]):
         trace.readings[b, step, r] = readings[r]
 
 
@@ -292,22 +347,25 @@ def _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation,
 
 @njit
 def robot_work(system, ctrl, params, b) -> Work:
-    """Robot ``b``'s :class:`Work`, allocated to its own sizes (:data:`WORK_FIELDS`)."""
+    """Robot ``b``'s :class:`Work`, allocated to its own sizes (:data:`WORK_PARTS`)."""
     p = system.n_points[b]
     s = system.n_springs[b]
     v = system.n_voxels[b]
     n = ctrl.n_nodes[b]
     c = contact_capacity(p, system.n_pairs[b])
     return Work(
-        np.empty(p), np.empty(p), np.empty(s), np.empty(p), np.empty(p),
-        np.empty((s, N_SPRING_COLUMNS)), np.empty((system.n_ropes[b], N_ROPE_COLUMNS)),
-        np.empty((system.n_welds[b], N_WELD_COLUMNS)), np.empty((c, N_CONTACT_COLUMNS)),
-        np.empty((c, N_CONTACT_COLUMNS)), np.empty(2, dtype=np.int64), np.empty((2, 4, 4)),
-        np.empty((2, 4)), np.empty(p, dtype=np.bool_), np.empty(p + 1, dtype=np.int64),
-        np.empty((p, 3)), np.empty((p, 3)), np.empty((p, 2)), np.empty((p, 2)),
-        np.empty((v, 6)), np.empty((v, int(params.touch_window))),
-        np.empty((v, int(params.velocity_window), 2)), np.empty(system.n_readings[b]),
-        np.empty(v), np.empty(n), np.empty(n), np.empty(N_TALLY),
+        Blocks(np.empty(p), np.empty(p), np.empty(p), np.empty(p), np.empty((p, 3)),
+               np.empty((p, 3)), np.empty((p, 2)), np.empty((p, 2))),
+        Joints(np.empty(s), np.empty((s, N_SPRING_COLUMNS)),
+               np.empty((system.n_ropes[b], N_ROPE_COLUMNS)),
+               np.empty((system.n_welds[b], N_WELD_COLUMNS))),
+        Collisions(np.empty((c, N_CONTACT_COLUMNS)), np.empty((c, N_CONTACT_COLUMNS)),
+                   np.empty(2, dtype=np.int64), np.empty((2, 4, 4)), np.empty((2, 4)),
+                   np.empty(p, dtype=np.bool_), np.empty(p + 1, dtype=np.int64)),
+        Senses(np.empty((v, 6)), np.empty((v, int(params.touch_window))),
+               np.empty((v, int(params.velocity_window), 2)), np.empty(system.n_readings[b])),
+        BrainState(np.empty(v), np.empty(n), np.empty(n)),
+        np.empty(N_TALLY),
     )
 
 
@@ -318,15 +376,21 @@ def _work_views(work, b, system, ctrl) -> Work:
     v = system.n_voxels[b]
     n = ctrl.n_nodes[b]
     c = contact_capacity(p, system.n_pairs[b])
+    blocks, joints, collisions, senses, brain = (work.blocks, work.joints, work.collisions,
+                                                 work.senses, work.brain)
     return Work(
-        work.inv_mass[b, :p], work.inv_inertia[b, :p], work.rest[b, :s], work.cos[b, :p],
-        work.sin[b, :p], work.spring[b, :s], work.rope[b, :system.n_ropes[b]],
-        work.weld[b, :system.n_welds[b]], work.contacts[b, :c], work.previous[b, :c],
-        work.counts[b], work.polygon[b], work.clipped[b], work.contact[b, :p],
-        work.segment[b, :p + 1], work.body_pos[b, :p], work.body_vel[b, :p], work.pos[b, :p],
-        work.vel[b, :p], work.voxels[b, :v], work.touch_hist[b, :v], work.vel_hist[b, :v],
-        work.readings[b, :system.n_readings[b]], work.actuation[b, :v], work.h_prev[b, :n],
-        work.h_next[b, :n], work.tally[b],
+        Blocks(blocks.inv_mass[b, :p], blocks.inv_inertia[b, :p], blocks.cos[b, :p],
+               blocks.sin[b, :p], blocks.body_pos[b, :p], blocks.body_vel[b, :p],
+               blocks.pos[b, :p], blocks.vel[b, :p]),
+        Joints(joints.rest[b, :s], joints.spring[b, :s], joints.rope[b, :system.n_ropes[b]],
+               joints.weld[b, :system.n_welds[b]]),
+        Collisions(collisions.contacts[b, :c], collisions.previous[b, :c], collisions.counts[b],
+                   collisions.polygon[b], collisions.clipped[b], collisions.contact[b, :p],
+                   collisions.segment[b, :p + 1]),
+        Senses(senses.voxels[b, :v], senses.touch_hist[b, :v], senses.vel_hist[b, :v],
+               senses.readings[b, :system.n_readings[b]]),
+        BrainState(brain.actuation[b, :v], brain.h_prev[b, :n], brain.h_next[b, :n]),
+        work.tally[b],
     )
 
 
@@ -350,17 +414,19 @@ def borrowed_work_row(work, b, system, ctrl) -> Work:
 def robot_state(system, b, params, work, rays) -> RobotState:
     """Robot ``b``'s :class:`RobotState` over ``work`` (its :func:`robot_work` or
     :func:`work_row`) and ``rays`` (:func:`~somite.sim.sensors.lidar_rays`)."""
-    robot_in(system, b, params, work.inv_mass, work.inv_inertia)
+    robot_in(system, b, params, work.blocks.inv_mass, work.blocks.inv_inertia)
     return state_over(system, b, work, rays)
 
 
 @njit(inline="always")
 def state_over(system, b, work, rays) -> RobotState:
     """:func:`robot_state` over a ``work`` that it has filled before."""
-    robot = robot_over(system, b, work.inv_mass, work.inv_inertia)
-    scratch = Scratch(work.rest, work.cos, work.sin, work.spring, work.rope, work.weld,
-                      work.contacts, work.previous, work.counts, work.polygon, work.clipped,
-                      work.contact, work.segment)
+    robot = robot_over(system, b, work.blocks.inv_mass, work.blocks.inv_inertia)
+    joints, collisions = work.joints, work.collisions
+    scratch = Scratch(joints.rest, work.blocks.cos, work.blocks.sin, joints.spring, joints.rope,
+                      joints.weld, collisions.contacts, collisions.previous, collisions.counts,
+                      collisions.polygon, collisions.clipped, collisions.contact,
+                      collisions.segment)
     return RobotState(robot, ground_view(system, b), scratch, work, rays)
 
 
@@ -383,28 +449,29 @@ def start(b, system, params, trace, state) -> None:
     n_points = robot.n_points
     n_voxels = robot.n_voxels
     n_readings = system.n_readings[b]
-    body_pos = work.body_pos
-    body_vel = work.body_vel
-    touch_hist = work.touch_hist
-    vel_hist = work.vel_hist
-    h_prev = work.h_prev
-    h_next = work.h_next
+    body_pos = work.blocks.body_pos
+    body_vel = work.blocks.body_vel
+    touch_hist = work.senses.touch_hist
+    vel_hist = work.senses.vel_hist
+    h_prev = work.brain.h_prev
+    h_next = work.brain.h_next
     for p in range(n_points):
         body_pos[p, 0] = system.initial_pos[b, p, 0]
         body_pos[p, 1] = system.initial_pos[b, p, 1]
         body_pos[p, 2] = 0.0
         body_vel[p, 0] = body_vel[p, 1] = body_vel[p, 2] = 0.0
-    corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, work.pos, work.vel)
+    corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, work.blocks.pos,
+                 work.blocks.vel)
     for v in range(n_voxels):
-        work.actuation[v] = 0.0
+        work.brain.actuation[v] = 0.0
         for j in range(6):
-            work.voxels[v, j] = 0.0
+            work.senses.voxels[v, j] = 0.0
         for j in range(touch_hist.shape[1]):
             touch_hist[v, j] = 0.0
         for j in range(vel_hist.shape[1]):
             vel_hist[v, j, 0] = vel_hist[v, j, 1] = 0.0
     for r in range(n_readings):
-        work.readings[r] = 0.0
+        work.senses.readings[r] = 0.0
     for n in range(h_prev.shape[0]):
         h_prev[n] = h_next[n] = 0.0
     cx, cy = _centre_of_mass(n_points, robot.mass, body_pos)
@@ -412,8 +479,7 @@ def start(b, system, params, trace, state) -> None:
     trace.com[b, 0, 0] = cx
     trace.com[b, 0, 1] = cy
     if trace.pos.shape[0] > 0:
-        _record(b, 0, n_points, n_voxels, n_readings, work.pos, scratch.contact, work.actuation,
-                work.readings, trace)
+        _record(b, 0, state, trace)
     work.tally[T_FASTEST] = 0.0
     work.tally[T_SMALLEST] = np.inf
     work.tally[T_NON_FINITE] = 0.0
@@ -428,15 +494,17 @@ def start(b, system, params, trace, state) -> None:
 # Inlined into its loops: a call per control step would pass the whole RobotState (some 50
 # arrays) and count references to each (measured: 6% of the kernel's time).
 @njit(inline="always")
-def control_step(k, b, system, ctrl, params, noise, seed, trace, state) -> bool:
-    """Control step ``k`` (1..n_steps) of robot ``b``: False when its state went non-finite,
-    which ends its episode (``trace.status``). The physics under the actuation in force
+def control_step(k, b, batch, state) -> bool:
+    """Control step ``k`` (1..n_steps) of robot ``b`` of ``batch``: False when its state went
+    non-finite, which ends its episode (``trace.status``). The physics under the actuation in force
     (:func:`before_physics`, ``advance``), then :func:`after_physics`; the CPU kernel
     (:mod:`somite.tasks.lanes`) runs the three parts over a group of robots at once."""
-    before_physics(state.robot, state.work.actuation, params, state.scratch.rest)
-    advance(state.robot, state.ground, state.scratch, state.work.body_pos, state.work.body_vel,
-            params, int(params.substeps))
-    return after_physics(k, b, system, ctrl, params, noise, seed, trace, state)
+    params = batch.params
+    before_physics(state.robot, state.work.brain.actuation, params, state.scratch.rest)
+    blocks = state.work.blocks
+    advance(state.robot, state.ground, state.scratch, blocks.body_pos, blocks.body_vel, params,
+            int(params.substeps))
+    return after_physics(k, b, batch, state)
 
 
 @njit(inline="always")
@@ -447,9 +515,11 @@ def before_physics(robot, actuation, params, rest) -> None:
 
 
 @njit(inline="always")
-def after_physics(k, b, system, ctrl, params, noise, seed, trace, state) -> bool:
+def after_physics(k, b, batch, state) -> bool:
     """What control step ``k`` does after its physics: check the state, observe, sense,
     control, record (:func:`control_step`'s return value)."""
+    system, ctrl, params, trace = batch.system, batch.ctrl, batch.params, batch.trace
+    noise, seed = batch.noise, batch.seeds[b]
     robot = state.robot
     ground = state.ground
     scratch = state.scratch
@@ -459,13 +529,13 @@ def after_physics(k, b, system, ctrl, params, noise, seed, trace, state) -> bool
     n_readings = system.n_readings[b]
     mass = robot.mass
     voxel_x = system.voxel_x[b]
-    body_pos = work.body_pos
-    body_vel = work.body_vel
-    pos = work.pos
-    vel = work.vel
-    voxels = work.voxels
-    readings = work.readings
-    actuation = work.actuation
+    body_pos = work.blocks.body_pos
+    body_vel = work.blocks.body_vel
+    pos = work.blocks.pos
+    vel = work.blocks.vel
+    voxels = work.senses.voxels
+    readings = work.senses.readings
+    actuation = work.brain.actuation
     tally = work.tally
     corner_state(robot, body_pos, body_vel, scratch.cos, scratch.sin, pos, vel)
     cx, cy = _centre_of_mass(n_points, mass, body_pos)
@@ -492,23 +562,21 @@ def after_physics(k, b, system, ctrl, params, noise, seed, trace, state) -> bool
     tally[T_SMALLEST] = smallest
     near = scratch.segment[robot.n_points]
     tilt = _column_tilt(n_voxels, voxel_x, tally[T_X_LO], tally[T_X_HI], voxels)
-    _observe(k, robot, ground, n_points, mass, body_pos, body_vel, scratch.cos, scratch.sin,
-             cx, cy, tilt, near, params, trace.diagnostics[b])
-    update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels, work.touch_hist,
-                     work.vel_hist, params)
+    _observe(k, robot, ground, work.blocks, (cx, cy, tilt, near), params, trace.diagnostics[b])
+    update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels,
+                     work.senses.touch_hist, work.senses.vel_hist, params)
     sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
-          work.touch_hist, work.vel_hist, state.rays, ground.xs, ground.ys, ground.n, near,
-          params, noise, readings)
-    _control(b, k, ctrl, n_voxels, voxel_x, readings, work.h_prev, work.h_next, actuation,
-             params)
+          work.senses.touch_hist, work.senses.vel_hist, state.rays, ground.xs, ground.ys,
+          ground.n, near, params, noise, readings)
+    _control(b, k, ctrl, n_voxels, voxel_x, readings, work.brain.h_prev, work.brain.h_next,
+             actuation, params)
     # The physics clamps actuation to [-1, 1] (a NaN acts as -1): counted, not hidden.
     for v in range(n_voxels):
         if not math.isfinite(actuation[v]):
             tally[T_NON_FINITE] += 1.0
             break
     if trace.pos.shape[0] > 0:
-        _record(b, k, n_points, n_voxels, n_readings, pos, scratch.contact, actuation,
-                readings, trace)
+        _record(b, k, state, trace)
     return True
 
 
@@ -522,10 +590,10 @@ def finish(b, trace, state) -> None:
 
 
 @njit(inline="always")
-def episode(b, system, ctrl, params, noise, seed, n_steps, trace, state) -> None:
-    """Robot ``b``'s whole episode over ``state`` (:func:`robot_state`), into ``trace``."""
-    start(b, system, params, trace, state)
-    for k in range(1, n_steps + 1):
-        if not control_step(k, b, system, ctrl, params, noise, seed, trace, state):
+def episode(b, batch, state) -> None:
+    """Robot ``b``'s whole episode over ``state`` (:func:`robot_state`), into ``batch.trace``."""
+    start(b, batch.system, batch.params, batch.trace, state)
+    for k in range(1, batch.n_steps + 1):
+        if not control_step(k, b, batch, state):
             break
-    finish(b, trace, state)
+    finish(b, batch.trace, state)

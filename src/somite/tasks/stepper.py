@@ -30,6 +30,7 @@ from ..sim.terrain import Terrain
 from . import arguments
 from .episode import (
     STATUS_OK,
+    Batch,
     Trace,
     control_step,
     finish,
@@ -43,28 +44,32 @@ from .locomotion import compile_batch
 
 
 @njit
-def _start_robots(system, ctrl, params, trace, work, rays, first, stride):
+def _start_robots(batch, first, stride):
+    system, trace = batch.system, batch.trace
     for b in range(first, system.n_points.shape[0], stride):
-        state = robot_state(system, b, params, work_row(work, b, system, ctrl), rays)
-        start(b, system, params, trace, state)
+        state = robot_state(system, b, batch.params,
+                            work_row(batch.work, b, system, batch.ctrl), batch.rays)
+        start(b, system, batch.params, trace, state)
         finish(b, trace, state)
 
 
 @njit
-def _step_robots(k, system, ctrl, params, noise, seeds, trace, work, rays, given, first, stride):
+def _step_robots(k, batch, given, first, stride):
+    system, trace = batch.system, batch.trace
     recording = trace.pos.shape[0] > 0
     for b in range(first, system.n_points.shape[0], stride):
         if trace.status[b] == STATUS_OK:
-            state = robot_state(system, b, params, work_row(work, b, system, ctrl), rays)
+            state = robot_state(system, b, batch.params,
+                                work_row(batch.work, b, system, batch.ctrl), batch.rays)
             if given.shape[0] > 0:
                 # What was in force over step k is what the trace shows at step k - 1, which
                 # decided it.
-                actuation = state.work.actuation
+                actuation = state.work.brain.actuation
                 for v in range(actuation.shape[0]):
                     actuation[v] = given[b, v]
                     if recording:
                         trace.actuation[b, k - 1, v] = given[b, v]
-            control_step(k, b, system, ctrl, params, noise, seeds[b], trace, state)
+            control_step(k, b, batch, state)
             finish(b, trace, state)
 
 
@@ -80,21 +85,19 @@ def _by_threads(kernel, args, n_robots: int, pool: Executor | None, threads: int
     spread(lambda j: kernel(*args, j, threads), threads, pool)
 
 
-def start_batch(system, ctrl, params, trace, work, rays, pool: Executor | None = None,
-                threads: int | None = None) -> None:
-    """:func:`~somite.tasks.episode.start` every robot over its row of ``work``, the robots
-    spread over ``threads`` threads (default: Numba's thread count), those of ``pool`` if
-    given, else started for this call."""
-    _by_threads(_start_robots, (system, ctrl, params, trace, work, rays),
-                system.n_points.shape[0], pool, threads)
+def start_batch(batch: Batch, pool: Executor | None = None, threads: int | None = None) -> None:
+    """:func:`~somite.tasks.episode.start` every robot of ``batch`` over its row of
+    ``batch.work``, the robots spread over ``threads`` threads (default: Numba's thread count),
+    those of ``pool`` if given, else started for this call."""
+    _by_threads(_start_robots, (batch,), batch.system.n_points.shape[0], pool, threads)
 
 
-def step_batch(k, system, ctrl, params, noise, seeds, trace, work, rays, given,
-               pool: Executor | None = None, threads: int | None = None) -> None:
-    """Control step ``k`` of every robot still running; ``given`` (B, V) replaces the actuation
-    in force over the step (0 rows: the controllers' own). Threads as in :func:`start_batch`."""
-    _by_threads(_step_robots, (k, system, ctrl, params, noise, seeds, trace, work, rays, given),
-                system.n_points.shape[0], pool, threads)
+def step_batch(k, batch: Batch, given, pool: Executor | None = None,
+               threads: int | None = None) -> None:
+    """Control step ``k`` of every robot of ``batch`` still running; ``given`` (B, V) replaces
+    the actuation in force over the step (0 rows: the controllers' own). Threads as in
+    :func:`start_batch`."""
+    _by_threads(_step_robots, (k, batch, given), batch.system.n_points.shape[0], pool, threads)
 
 
 def _real_array(field: str, value) -> np.ndarray:
@@ -188,8 +191,9 @@ class Episode:
         self._threads = threads_for(n)
         self._pool = (ThreadPoolExecutor(self._threads - 1, thread_name_prefix=THREAD_NAME)
                       if self._threads > 1 else None)
-        start_batch(self.system, self.controllers, self._params, self._trace, self._work,
-                    self._rays, self._pool, self._threads)
+        self._batch = Batch(self.system, self.controllers, self._params, self._noise,
+                            self._seeds, config.n_steps, self._trace, self._work, self._rays)
+        start_batch(self._batch, self._pool, self._threads)
 
     @property
     def n_robots(self) -> int:
@@ -229,9 +233,7 @@ class Episode:
                           "every value must be in [-1, 1]")
             given = np.ascontiguousarray(given)
         self._k += 1
-        step_batch(self._k, self.system, self.controllers, self._params, self._noise,
-                   self._seeds, self._trace, self._work, self._rays, given, self._pool,
-                   self._threads)
+        step_batch(self._k, self._batch, given, self._pool, self._threads)
         if self.done and self._pool is not None:
             self._pool.shutdown()
             self._pool = None
@@ -252,17 +254,17 @@ class Episode:
     def readings(self) -> np.ndarray:
         """(B, R) the sensors' normalised, noisy readings of the last step (padded: a robot's
         first ``n_readings`` columns)."""
-        return _read_only(self._work.readings)
+        return _read_only(self._work.senses.readings)
 
     @property
     def actuation(self) -> np.ndarray:
         """(B, V) the actuation in force over the next step (the controllers' decision)."""
-        return _read_only(self._work.actuation)
+        return _read_only(self._work.brain.actuation)
 
     @property
     def positions(self) -> np.ndarray:
         """(B, P, 2) the voxel corners' positions [m] (a robot's first ``n_points`` rows)."""
-        return _read_only(self._work.pos)
+        return _read_only(self._work.blocks.pos)
 
     @property
     def com(self) -> np.ndarray:

@@ -46,7 +46,7 @@ from ..sim.robot import (
     robot_in,
     robot_over,
 )
-from ..sim.sensors import angle_mode, sense, update_histories, voxel_state
+from ..sim.sensors import Sensing, angle_mode, sense, update_histories, voxel_state
 
 ZERO, SINE, TABLE, GRAPH = 0, 1, 2, 3
 CONTROLLER_KINDS = {"zero": ZERO, "sine": SINE, "table": TABLE, "graph": GRAPH}
@@ -494,11 +494,10 @@ def after_physics(k, b, system, ctrl, params, noise, seed, trace, state) -> bool
     tilt = _column_tilt(n_voxels, voxel_x, tally[T_X_LO], tally[T_X_HI], voxels)
     _observe(k, robot, ground, n_points, mass, body_pos, body_vel, scratch.cos, scratch.sin,
              cx, cy, tilt, near, params, trace.diagnostics[b])
-    update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels, work.touch_hist,
-                     work.vel_hist, params)
-    sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
-          work.touch_hist, work.vel_hist, state.rays, ground.xs, ground.ys, ground.n, near,
-          params, noise, readings)
+    sensing = Sensing(n_readings, system.reading_code[b], system.reading_component[b],
+                      system.reading_voxel[b], voxels, work.touch_hist, work.vel_hist, state.rays)
+    update_histories(k - 1, n_voxels, robot.corners, scratch.contact, sensing, params)
+    sense(k - 1, seed, sensing, ground, near, params, noise, readings)
     _control(b, k, ctrl, n_voxels, voxel_x, readings, work.h_prev, work.h_next, actuation,
              params)
     # The physics clamps actuation to [-1, 1] (a NaN acts as -1): counted, not hidden.

@@ -11,7 +11,13 @@ import pytest
 from somite.brain.controllers import Zero
 from somite.sim.body import SENSOR_KINDS, Body
 from somite.sim.config import LIDAR_ORIGINAL, SimConfig, preset
-from somite.sim.sensor_kinds import NOISE_STRIDE, SENSOR_CODE, SENSORS
+from somite.sim.sensor_kinds import (
+    NOISE_STRIDE,
+    READING_COMPONENT,
+    READING_KIND,
+    SENSOR_CODE,
+    SENSORS,
+)
 from somite.sim.sensors import noise_table
 from somite.sim.system import compile_system
 from somite.sim.terrain import parse_terrain
@@ -35,6 +41,9 @@ def test_the_table_is_the_body_s_list_of_kinds():
     assert SENSOR_KINDS == tuple(kind.name for kind in SENSORS)
     assert [SENSOR_CODE[kind.name] for kind in SENSORS] == list(range(len(SENSORS)))
     assert len({kind.colour for kind in SENSORS}) == len(SENSORS)
+    # Reading codes number the (kind, component) pairs in the table's order.
+    pairs = [(code, c) for code, kind in enumerate(SENSORS) for c in range(kind.width)]
+    assert list(zip(READING_KIND.tolist(), READING_COMPONENT.tolist())) == pairs
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -44,8 +53,9 @@ def test_a_kind_s_readings_are_its_width_of_codes_and_components(kind):
     assert body.n_readings == kind.width * n
     system = compile_system([body], [FLAT])
     assert system.n_readings.tolist() == [kind.width * n]
-    assert (system.reading_code[0] == SENSOR_CODE[kind.name]).all()
-    assert system.reading_component[0].tolist() == list(range(kind.width)) * n
+    codes = system.reading_code[0]
+    assert (READING_KIND[codes] == SENSOR_CODE[kind.name]).all()
+    assert READING_COMPONENT[codes].tolist() == list(range(kind.width)) * n
     assert system.reading_voxel[0].tolist() == np.repeat(np.arange(n), kind.width).tolist()
 
 

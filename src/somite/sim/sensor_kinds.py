@@ -5,7 +5,8 @@ A voxel's sensors give readings of one kind each: a kind's row in :data:`SENSORS
 values one sensor gives, what colour its sector is drawn in, how many of the authors'
 ``java.util.Random(0)`` Gaussians it spends per step and which :class:`~somite.sim.config.SimConfig`
 fields it reads. A kind's code is its position in the table, and the sensing kernel
-(:func:`somite.sim.sensors.sense`) has one branch per code. The table's order is also the order
+(:func:`somite.sim.sensors.sense`) has one branch per code; each scalar reading has a reading
+code, derived from the table (:func:`reading_code`). The table's order is also the order
 in which a voxel lists its sensors when built from a preset or a mapping.
 
 Numba's on-disk cache only notices edits to the file that defines a kernel: the kernels of
@@ -52,7 +53,23 @@ AREA, TOUCH, VELOCITY, LIDAR = (SENSOR_CODE[name] for name in ("area", "touch", 
                                                                "lidar"))
 
 NOISE_STRIDE = np.array([kind.noise_stride for kind in SENSORS], dtype=np.int64)
-"""(kinds,) :attr:`SensorKind.noise_stride` by code, as the sensing kernel reads it."""
+"""(kinds,) :attr:`SensorKind.noise_stride` by kind code, as the sensing kernel reads it."""
 
-__all__ = ["AREA", "LIDAR", "NOISE_STRIDE", "SENSORS", "SENSOR_CODE", "TOUCH", "VELOCITY",
-           "SensorKind"]
+READING_KIND = np.array([code for code, kind in enumerate(SENSORS) for _ in range(kind.width)],
+                        dtype=np.int64)
+"""Reading code -> kind code. A reading code numbers the (kind, component) pairs in the table's
+order (area 0, touch 1, velocity 2 and 3, lidar 4 to 8): what a batch stores per reading
+(``System.reading_code``, :func:`reading_code`)."""
+
+READING_COMPONENT = np.array([c for kind in SENSORS for c in range(kind.width)], dtype=np.int64)
+"""Reading code -> component (0 .. width - 1) of its kind."""
+
+
+def reading_code(kind: str, component: int) -> int:
+    """The reading code of component ``component`` of a sensor of kind ``kind``."""
+    code = SENSOR_CODE[kind]
+    return sum(k.width for k in SENSORS[:code]) + component
+
+
+__all__ = ["AREA", "LIDAR", "NOISE_STRIDE", "READING_COMPONENT", "READING_KIND", "SENSORS",
+           "SENSOR_CODE", "TOUCH", "VELOCITY", "SensorKind", "reading_code"]

@@ -28,7 +28,15 @@ from .._math import tanh
 from .config import SimConfig
 from .java_random import JavaRandom
 from .physics import segment_near, voxel_corners
-from .sensor_kinds import AREA, LIDAR, NOISE_STRIDE, TOUCH, VELOCITY
+from .sensor_kinds import (
+    AREA,
+    LIDAR,
+    NOISE_STRIDE,
+    READING_COMPONENT,
+    READING_KIND,
+    TOUCH,
+    VELOCITY,
+)
 
 AREA_LOW, AREA_HIGH = 0.5, 1.5
 VOXEL_AREA = 9.0
@@ -44,13 +52,13 @@ class Sensing(NamedTuple):
     its batch's arrays (R readings, V voxels)."""
 
     n_readings: int
-    code: np.ndarray  # (R,) int32 each reading's sensor kind (sensor_kinds.SENSOR_CODE)
-    component: np.ndarray  # (R,) int32 which of its sensor's values it is
+    code: np.ndarray  # (R,) int32 each reading's code (sensor_kinds.reading_code)
     voxel: np.ndarray  # (R,) int32 the voxel it reads
     voxels: np.ndarray  # (V, 6) voxel_state's
     touch_hist: np.ndarray  # (V, touch_window) contacts of the last steps (a ring buffer)
     vel_hist: np.ndarray  # (V, velocity_window, 2) velocities of the last steps (a ring buffer)
     rays: np.ndarray  # (5, 2) lidar_rays(params)
+
 
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
@@ -226,7 +234,6 @@ def sense(step, seed, sensing, ground, guess, params, noise, readings):
     the robot; ``noise`` is :func:`noise_table`'s (empty: independent noise from ``seed``)."""
     n_readings = sensing.n_readings
     codes = sensing.code
-    components = sensing.component
     reading_voxel = sensing.voxel
     voxels = sensing.voxels
     touch_hist = sensing.touch_hist
@@ -239,7 +246,8 @@ def sense(step, seed, sensing, ground, guess, params, noise, readings):
     sigma = params.noise
     for r in range(n_readings):
         v = reading_voxel[r]
-        kind = codes[r]
+        kind = READING_KIND[codes[r]]
+        component = READING_COMPONENT[codes[r]]
         value = 0.0
         if kind == AREA:
             value = soft_normalise(voxels[v, 4], AREA_LOW, AREA_HIGH)
@@ -250,12 +258,11 @@ def sense(step, seed, sensing, ground, guess, params, noise, readings):
                 total += touch_hist[v, (step - i) % wt]
             value = total / count
         elif kind == VELOCITY:
-            mean = _window_mean(vel_hist, v, step, wv, components[r])
+            mean = _window_mean(vel_hist, v, step, wv, component)
             value = soft_normalise(mean, -vmax, vmax)
         elif kind == LIDAR:
-            ray = components[r]
-            dx = rays[ray, 0]
-            dy = rays[ray, 1]
+            dx = rays[component, 0]
+            dy = rays[component, 1]
             if params.lidar_frame == 1.0:
                 c = math.cos(voxels[v, 5])
                 s = math.sin(voxels[v, 5])
@@ -266,7 +273,8 @@ def sense(step, seed, sensing, ground, guess, params, noise, readings):
         readings[r] = value
     if sigma > 0.0 and noise.shape[0] > 0:
         for r in range(n_readings):
-            index = NOISE_STRIDE[codes[r]] * step + components[r]
+            code = codes[r]
+            index = NOISE_STRIDE[READING_KIND[code]] * step + READING_COMPONENT[code]
             readings[r] += sigma * noise[index]
     elif sigma > 0.0:
         for pair in range((n_readings + 1) // 2):

@@ -23,7 +23,7 @@ import numpy as np
 from .._arrays import pad
 from .body import Body
 from .config import BLOCK_INERTIA, BLOCK_SIDE, CORNER_MASS, VOXEL_SIDE
-from .sensor_kinds import SENSOR_CODE
+from .sensor_kinds import reading_code
 from .terrain import Terrain
 
 SPRING_SIDE, SPRING_CROSS, SPRING_CENTRAL = 0, 1, 2
@@ -61,8 +61,7 @@ class System(NamedTuple):
     voxel_corners: np.ndarray  # (B, V, 4) int32 bodies SW, SE, NE, NW (counter-clockwise)
     voxel_x: np.ndarray  # (B, V) grid column of each voxel
     n_readings: np.ndarray  # (B,) int32
-    reading_code: np.ndarray  # (B, R) int32 its sensor's kind (sensor_kinds.SENSOR_CODE)
-    reading_component: np.ndarray  # (B, R) int32 which of its sensor's values (from 0)
+    reading_code: np.ndarray  # (B, R) int32 sensor_kinds.reading_code: kind and component
     reading_voxel: np.ndarray  # (B, R) int32
     terrain_of: np.ndarray  # (B,) int32 index into the terrain arrays
     terrain_n: np.ndarray  # (T,) int32 vertices of each terrain
@@ -192,10 +191,12 @@ def place(points: np.ndarray, corners: np.ndarray, terrain: Terrain, gap: float)
     return pos
 
 
-def _readings(body: Body) -> np.ndarray:
-    """(R, 3) int32: each reading's sensor kind code, component and voxel."""
-    return np.array([(SENSOR_CODE[r.kind], r.component, r.voxel) for r in body.readings],
-                    dtype=np.int32).reshape(-1, 3)
+def _readings(body: Body) -> tuple[list[int], list[int]]:
+    codes, voxels = [], []
+    for reading in body.readings:
+        codes.append(reading_code(reading.kind, reading.component))
+        voxels.append(reading.voxel)
+    return codes, voxels
 
 
 def compile_system(
@@ -216,7 +217,7 @@ def compile_system(
             unique[id(terrain)] = len(terrain_list)
             terrain_list.append(terrain)
         terrain_of[b] = unique[id(terrain)]
-    cache: dict[int, tuple[Geometry, np.ndarray]] = {}  # a batch holds few distinct bodies
+    cache: dict[int, tuple[Geometry, tuple]] = {}  # a batch holds few distinct bodies
     for body in bodies:
         if id(body) not in cache:
             cache[id(body)] = geometry(body), _readings(body)
@@ -246,10 +247,9 @@ def compile_system(
         n_voxels=np.array([len(g.corners) for g in geoms], dtype=np.int32),
         voxel_corners=pad([g.corners for g in geoms], (4,), np.int32),
         voxel_x=pad([np.array([x for x, _ in b.shape.voxels]) for b in bodies], (), np.float64),
-        n_readings=np.array([len(r) for r in readings], dtype=np.int32),
-        reading_code=pad([r[:, 0] for r in readings], (), np.int32),
-        reading_component=pad([r[:, 1] for r in readings], (), np.int32),
-        reading_voxel=pad([r[:, 2] for r in readings], (), np.int32),
+        n_readings=np.array([len(c) for c, _ in readings], dtype=np.int32),
+        reading_code=pad([np.array(c, dtype=np.int32) for c, _ in readings], (), np.int32),
+        reading_voxel=pad([np.array(v, dtype=np.int32) for _, v in readings], (), np.int32),
         terrain_of=terrain_of,
         terrain_n=np.array([len(t.xs) for t in terrain_list], dtype=np.int32),
         terrain_x=pad([t.xs for t in terrain_list], (), np.float64),

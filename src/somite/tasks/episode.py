@@ -457,8 +457,8 @@ def after_physics(k, b, system, ctrl, params, noise, seed, trace, state) -> bool
     tilt = _column_tilt(n_voxels, voxel_x, tally[T_X_LO], tally[T_X_HI], voxels)
     _observe(k, robot, ground, n_points, mass, body_pos, body_vel, scratch.cos, scratch.sin,
              cx, cy, tilt, near, params, trace.diagnostics[b])
-    sensing = Sensing(n_readings, system.reading_code[b], system.reading_component[b],
-                      system.reading_voxel[b], voxels, work.touch_hist, work.vel_hist, state.rays)
+    sensing = Sensing(n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
+                      work.touch_hist, work.vel_hist, state.rays)
     update_histories(k - 1, n_voxels, robot.corners, scratch.contact, sensing, params)
     sense(k - 1, seed, sensing, ground, near, params, noise, readings)
     control(b, k, k / CONTROL_HZ, ctrl,

@@ -12,7 +12,7 @@ import pytest
 
 from somite.bench import random_graph
 from somite.brain.controllers import GraphArrays
-from somite.brain.kernels import graph_step
+from somite.brain.kernels import graph_of, graph_step
 from somite.brain.kinds import ACTUATOR, HIDDEN, SENSOR
 from somite.sim.terrain import hilly
 from somite.tasks.locomotion import simulate_batch
@@ -75,8 +75,7 @@ def test_graph_step_matches_reference(name, sigmoid_hidden):
     for _ in range(12):
         readings = rng.random(2)
         actuation = np.zeros(n_voxels)
-        graph_step(g.n_nodes, g.node_kind, g.node_ref, g.n_edges, g.src, g.dst, g.weight,
-                   g.bias, h_prev, h_next, readings, actuation, sigmoid_hidden)
+        graph_step(graph_of(g), h_prev, h_next, readings, actuation, sigmoid_hidden)
         ref_h, ref_actuation = reference_step(g, ref_h, readings, sigmoid_hidden)
         np.testing.assert_allclose(h_next, ref_h, rtol=0, atol=1e-14)
         for voxel, value in ref_actuation.items():
@@ -90,8 +89,7 @@ def test_delays_and_isolated_nodes():
     out = np.zeros(g.n_nodes)
     actuation = np.zeros(1)
     # Step 1: the actuator sees only h_0 = 0 of its sources: tanh(sum of biases).
-    graph_step(g.n_nodes, g.node_kind, g.node_ref, g.n_edges, g.src, g.dst, g.weight, g.bias,
-               h, out, np.array([0.9, 0.4]), actuation, False)
+    graph_step(graph_of(g), h, out, np.array([0.9, 0.4]), actuation, False)
     assert actuation[0] == pytest.approx(math.tanh(0.3 - 0.2))
     assert out[1] == pytest.approx(math.tanh(0.1))  # hidden: only its bias so far
     iso = HAND_MADE["isolated"]
@@ -99,8 +97,7 @@ def test_delays_and_isolated_nodes():
     out = np.zeros(4)
     actuation = np.full(2, 7.0)
     for sigmoid_hidden, hidden_value in ((False, 0.0), (True, 0.5)):
-        graph_step(4, iso.node_kind, iso.node_ref, 1, iso.src, iso.dst, iso.weight, iso.bias,
-                   h, out, np.array([0.3]), actuation, sigmoid_hidden)
+        graph_step(graph_of(iso), h, out, np.array([0.3]), actuation, sigmoid_hidden)
         assert actuation[1] == 0.0  # an isolated actuator rests
         assert out[3] == hidden_value  # act(0) for an isolated hidden node
 

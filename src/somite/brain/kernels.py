@@ -8,18 +8,47 @@ edge, the bias summed once per edge, an isolated node giving act(0). Hidden node
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import numpy as np
+
 from .._jit import uncounted
 from .._math import sigmoid, tanh
 from .kinds import HIDDEN, SENSOR
 
 
-@uncounted
-def graph_step(n_nodes, node_kind, node_ref, n_edges, src, dst, weight, bias,
-               h_prev, h_next, readings, actuation, hidden_sigmoid):
-    """One control step: ``h_next`` from ``h_prev`` and ``readings``; writes ``actuation``.
+class Graph(NamedTuple):
+    """One graph controller as :func:`graph_step` reads it (N nodes, E edges; the arrays may be
+    longer, padded: only the first ``n_nodes`` and ``n_edges`` are read)."""
 
-    ``node_ref`` is the reading index of a sensor node and the voxel index of an actuator.
-    """
+    n_nodes: int
+    node_kind: np.ndarray  # (N,) int32 SENSOR / HIDDEN / ACTUATOR
+    node_ref: np.ndarray  # (N,) int32 reading index (sensor) or voxel index (actuator)
+    n_edges: int
+    src: np.ndarray  # (E,) int32 node index
+    dst: np.ndarray  # (E,) int32 node index
+    weight: np.ndarray  # (E,)
+    bias: np.ndarray  # (E,)
+
+
+def graph_of(arrays) -> Graph:
+    """The :class:`Graph` of a :class:`~somite.brain.controllers.GraphArrays`."""
+    return Graph(arrays.n_nodes, arrays.node_kind, arrays.node_ref, arrays.n_edges, arrays.src,
+                 arrays.dst, arrays.weight, arrays.bias)
+
+
+@uncounted
+def graph_step(graph, h_prev, h_next, readings, actuation, hidden_sigmoid):
+    """One control step of ``graph`` (:class:`Graph`): ``h_next`` from ``h_prev`` and
+    ``readings``; writes ``actuation``."""
+    n_nodes = graph.n_nodes
+    node_kind = graph.node_kind
+    node_ref = graph.node_ref
+    n_edges = graph.n_edges
+    src = graph.src
+    dst = graph.dst
+    weight = graph.weight
+    bias = graph.bias
     for n in range(n_nodes):
         h_next[n] = 0.0
     for e in range(n_edges):

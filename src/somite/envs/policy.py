@@ -19,7 +19,7 @@ import numpy as np
 from ..brain.compile import compile_genome
 from ..brain.controllers import GraphArrays
 from ..brain.genome import Genome
-from ..brain.kernels import graph_step
+from ..brain.kernels import graph_of, graph_step
 from ..errors import bad
 from ..sim.config import preset as sim_preset
 
@@ -47,6 +47,7 @@ class GenomePolicy:
         self.n_readings = genome.body.n_readings
         self.n_voxels = genome.body.shape.n_voxels
         self._sigmoid = hidden_activation == "sigmoid"
+        self._kernel_graph = graph_of(self.graph)
         n = max(1, self.graph.n_nodes)
         # Two buffers a row that take turns, as in the compiled loop: a step reads what the one
         # before wrote.
@@ -65,7 +66,7 @@ class GenomePolicy:
         if starts.shape not in ((), (self.n_envs,)):
             raise bad("first", f"shape {starts.shape}", f"one bool, or one per env ({self.n_envs})")
         starts = np.broadcast_to(starts, (self.n_envs,))
-        graph = self.graph
+        graph = self._kernel_graph
         for e in range(self.n_envs):
             if starts[e]:
                 # A new episode: the actuation over its step 1 is 0, the nodes start at 0.
@@ -77,9 +78,8 @@ class GenomePolicy:
                 k = self._k[e]
                 old, new = (self._h[e, 0], self._h[e, 1]) if k % 2 == 1 else (self._h[e, 1],
                                                                              self._h[e, 0])
-                graph_step(graph.n_nodes, graph.node_kind, graph.node_ref, graph.n_edges,
-                           graph.src, graph.dst, graph.weight, graph.bias, old, new,
-                           np.ascontiguousarray(rows[e]), self._actuation[e], self._sigmoid)
+                graph_step(graph, old, new, np.ascontiguousarray(rows[e]), self._actuation[e],
+                           self._sigmoid)
         actions = self._actuation.copy()
         return actions[0] if single else actions
 

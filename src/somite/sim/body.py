@@ -18,11 +18,12 @@ from .. import checks
 from ..errors import bad, bad_type
 from ..formats import known_keys
 from ..limits import MAX_SHAPE_SIDE
+from .sensor_kinds import SENSORS
 
-SENSOR_KINDS = ("area", "touch", "velocity", "lidar")
+SENSOR_KINDS = tuple(kind.name for kind in SENSORS)
 """Sensor kinds, in the order in which a voxel lists them when it has several."""
 
-SENSOR_WIDTH = {"area": 1, "touch": 1, "velocity": 2, "lidar": 5}
+SENSOR_WIDTH = {kind.name: kind.width for kind in SENSORS}
 """How many scalar readings one sensor of each kind gives."""
 
 

@@ -31,8 +31,12 @@ LIDAR_ORIGINAL = (-math.pi / 5, -math.pi / 10, 0.0, math.pi / 10, math.pi / 5)
 
 ACTIVATIONS = ("tanh", "sigmoid")
 FRAMES = ("world", "voxel")
+IN_VOXEL_FRAME = FRAMES.index("voxel")
+"""``Params.lidar_frame`` and ``velocity_frame`` of a sensor that reads in its voxel's frame."""
 NOISE_STREAMS = ("independent", "java-random-0")
 VOXEL_ANGLES = ("vector-mean", "angle-mean")
+MEAN_OF_ANGLES = VOXEL_ANGLES.index("angle-mean")
+"""``Params.voxel_angle`` of the authors' voxel orientation (the mean of its corners' angles)."""
 
 
 MAX_WINDOW = int(MAX_DURATION * CONTROL_HZ)

@@ -1,5 +1,9 @@
 """Sensor readings of one robot, computed once per control step (docs/decisions.md, "Sensors").
 
+Each kind of sensor is a row of :data:`~somite.sim.sensor_kinds.SENSORS` and a branch of
+:func:`sense`; a sensor that keeps a history (touch, velocity) also has its ring buffer in
+:class:`Sensing`, filled by :func:`update_histories`.
+
 Readings are normalised to about [0, 1]: area ratio and velocity through the soft
 normalisation 0.5 + 0.5 tanh(2(2v - 1)) of their domain ([0.5, 1.5] and [-v_max, v_max]), touch
 as 0/1 (or its moving average), lidar as distance / range (1 when the ray hits nothing); touch
@@ -15,22 +19,46 @@ table of ``java.util.Random(0)`` Gaussians (:func:`noise_table`), the same for e
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
 from .._jit import njit, uncounted
 from .._math import tanh
-from .config import SimConfig
+from .config import IN_VOXEL_FRAME, MEAN_OF_ANGLES, SimConfig
 from .java_random import JavaRandom
 from .physics import segment_near, voxel_corners
-from .system import R_AREA, R_LIDAR0, R_TOUCH, R_VX, R_VY
+from .sensor_kinds import (
+    AREA,
+    LIDAR,
+    NOISE_STRIDE,
+    READING_COMPONENT,
+    READING_KIND,
+    TOUCH,
+    VELOCITY,
+)
 
 AREA_LOW, AREA_HIGH = 0.5, 1.5
 VOXEL_AREA = 9.0
 NO_ANGLE, VECTOR_MEAN, ANGLE_MEAN = 0, 1, 2
 """What :func:`voxel_state` computes as the voxel angle (see :func:`angle_mode`)."""
-READING_WIDTH = 5
-"""Values of the widest sensor (the lidar): the authors' stream spends that many per step."""
+NOISE_PER_STEP = int(NOISE_STRIDE.max())
+"""Gaussians of the authors' noise stream that the most spending sensor (the lidar) uses per
+control step: :func:`noise_table` holds that many a step."""
+
+
+class Sensing(NamedTuple):
+    """One robot's sensors, as :func:`sense` and :func:`update_histories` read them: views of
+    its batch's arrays (R readings, V voxels)."""
+
+    n_readings: int
+    code: np.ndarray  # (R,) int32 each reading's code (sensor_kinds.reading_code)
+    voxel: np.ndarray  # (R,) int32 the voxel it reads
+    voxels: np.ndarray  # (V, 6) voxel_state's
+    touch_hist: np.ndarray  # (V, touch_window) contacts of the last steps (a ring buffer)
+    vel_hist: np.ndarray  # (V, velocity_window, 2) velocities of the last steps (a ring buffer)
+    rays: np.ndarray  # (5, 2) lidar_rays(params)
+
 
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
 _M2 = np.uint64(0x94D049BB133111EB)
@@ -72,21 +100,22 @@ def noise_table(config: SimConfig) -> np.ndarray:
     Each of the authors' sensors owns a ``java.util.Random(0)``, restarted each episode, and
     draws one Gaussian per value per step: a 1-D sensor gets #k at step k (from 1), the 2-D
     velocity #2k-1 and #2k, the lidar #5k-4..#5k (docs/original-system.md section 2.1). Entry
-    ``width * (k - 1) + j`` of this table is Gaussian #``width * (k - 1) + j + 1``.
+    ``stride * (k - 1) + j`` of this table is Gaussian #``stride * (k - 1) + j + 1``
+    (``stride``: the kind's :attr:`~somite.sim.sensor_kinds.SensorKind.noise_stride`).
     """
     if config.noise_stream != "java-random-0":
         return np.zeros(0)
     rng = JavaRandom(0)
-    return np.array([rng.next_gaussian() for _ in range(READING_WIDTH * config.n_steps)])
+    return np.array([rng.next_gaussian() for _ in range(NOISE_PER_STEP * config.n_steps)])
 
 
 @njit
 def angle_mode(params) -> int:
     """The voxel angle :func:`voxel_state` must compute: none unless a sensor reads in the
     voxel frame, else the configured ``voxel_angle``."""
-    if params.lidar_frame != 1.0 and params.velocity_frame != 1.0:
+    if params.lidar_frame != IN_VOXEL_FRAME and params.velocity_frame != IN_VOXEL_FRAME:
         return NO_ANGLE
-    return ANGLE_MEAN if params.voxel_angle == 1.0 else VECTOR_MEAN
+    return ANGLE_MEAN if params.voxel_angle == MEAN_OF_ANGLES else VECTOR_MEAN
 
 
 @njit
@@ -138,10 +167,12 @@ def voxel_state(n_voxels, corners, pos, vel, angle, out):
 
 
 @uncounted
-def raycast(x0, y0, dx, dy, reach, xs, ys, n, guess) -> float:
-    """Distance along the unit ray (dx, dy) from (x0, y0) to the terrain, or ``reach``.
+def raycast(x0, y0, dx, dy, reach, ground, guess) -> float:
+    """Distance along the unit ray (dx, dy) from (x0, y0) to the terrain ``ground``, or
+    ``reach``.
 
     ``guess`` is a segment index near the ray's start (the search walks from it)."""
+    xs, ys, n = ground.xs, ground.ys, ground.n
     x1 = x0 + dx * reach
     first = segment_near(xs, n, min(x0, x1), guess)
     last_x = max(x0, x1)
@@ -164,11 +195,15 @@ def raycast(x0, y0, dx, dy, reach, xs, ys, n, guess) -> float:
 
 
 @uncounted
-def update_histories(step, n_voxels, corners, contact, voxels, touch_hist, vel_hist, params):
-    """Store this step's touch and velocity (in the configured frame) in the ring buffers."""
+def update_histories(step, n_voxels, corners, contact, sensing, params):
+    """Store this step's touch (``contact``: (P,) per block) and velocity (in the configured
+    frame) in ``sensing``'s ring buffers."""
+    voxels = sensing.voxels
+    touch_hist = sensing.touch_hist
+    vel_hist = sensing.vel_hist
     wt = int(params.touch_window)
     wv = int(params.velocity_window)
-    rotate = params.velocity_frame == 1.0
+    rotate = params.velocity_frame == IN_VOXEL_FRAME
     for v in range(n_voxels):
         touching = 0.0
         for k in range(4):
@@ -195,11 +230,17 @@ def _window_mean(hist, v, step, window, column) -> float:
 
 
 @uncounted
-def sense(step, seed, n_readings, codes, reading_voxel, voxels, touch_hist, vel_hist, rays,
-          xs, ys, n_terrain, guess, params, noise, readings):
+def sense(step, seed, sensing, ground, guess, params, noise, readings):
     """Fill ``readings`` (R,) for control step ``step`` (from 0; histories already updated);
-    ``guess`` is a terrain segment near the robot; ``noise`` is :func:`noise_table`'s (empty:
-    independent noise from ``seed``)."""
+    ``ground`` is the robot's terrain (``n``, ``xs``, ``ys``), ``guess`` a segment of it near
+    the robot; ``noise`` is :func:`noise_table`'s (empty: independent noise from ``seed``)."""
+    n_readings = sensing.n_readings
+    codes = sensing.code
+    reading_voxel = sensing.voxel
+    voxels = sensing.voxels
+    touch_hist = sensing.touch_hist
+    vel_hist = sensing.vel_hist
+    rays = sensing.rays
     wt = int(params.touch_window)
     wv = int(params.velocity_window)
     vmax = params.velocity_max
@@ -207,38 +248,34 @@ def sense(step, seed, n_readings, codes, reading_voxel, voxels, touch_hist, vel_
     sigma = params.noise
     for r in range(n_readings):
         v = reading_voxel[r]
-        code = codes[r]
-        if code == R_AREA:
+        kind = READING_KIND[codes[r]]
+        component = READING_COMPONENT[codes[r]]
+        value = 0.0
+        if kind == AREA:
             value = soft_normalise(voxels[v, 4], AREA_LOW, AREA_HIGH)
-        elif code == R_TOUCH:
+        elif kind == TOUCH:
             count = min(step + 1, wt)
             total = 0.0
             for i in range(count):
                 total += touch_hist[v, (step - i) % wt]
             value = total / count
-        elif code == R_VX or code == R_VY:
-            mean = _window_mean(vel_hist, v, step, wv, code - R_VX)
+        elif kind == VELOCITY:
+            mean = _window_mean(vel_hist, v, step, wv, component)
             value = soft_normalise(mean, -vmax, vmax)
-        else:
-            ray = code - R_LIDAR0
-            dx = rays[ray, 0]
-            dy = rays[ray, 1]
-            if params.lidar_frame == 1.0:
+        elif kind == LIDAR:
+            dx = rays[component, 0]
+            dy = rays[component, 1]
+            if params.lidar_frame == IN_VOXEL_FRAME:
                 c = math.cos(voxels[v, 5])
                 s = math.sin(voxels[v, 5])
                 dx, dy = dx * c - dy * s, dx * s + dy * c
-            hit = raycast(voxels[v, 0], voxels[v, 1], dx, dy, reach, xs, ys, n_terrain, guess)
+            hit = raycast(voxels[v, 0], voxels[v, 1], dx, dy, reach, ground, guess)
             value = hit / reach
         readings[r] = value
     if sigma > 0.0 and noise.shape[0] > 0:
         for r in range(n_readings):
             code = codes[r]
-            if code == R_VX or code == R_VY:
-                index = 2 * step + code - R_VX
-            elif code >= R_LIDAR0:
-                index = READING_WIDTH * step + code - R_LIDAR0
-            else:
-                index = step
+            index = NOISE_STRIDE[READING_KIND[code]] * step + READING_COMPONENT[code]
             readings[r] += sigma * noise[index]
     elif sigma > 0.0:
         for pair in range((n_readings + 1) // 2):

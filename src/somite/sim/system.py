@@ -20,14 +20,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .body import SENSOR_WIDTH, Body
+from .._arrays import pad
+from .body import Body
 from .config import BLOCK_INERTIA, BLOCK_SIDE, CORNER_MASS, VOXEL_SIDE
+from .sensor_kinds import reading_code
 from .terrain import Terrain
-
-# Reading codes: which quantity one scalar reading measures.
-R_AREA, R_TOUCH, R_VX, R_VY, R_LIDAR0 = 0, 1, 2, 3, 4
-_READING_CODES = {"area": (R_AREA,), "touch": (R_TOUCH,), "velocity": (R_VX, R_VY)}
-_READING_CODES["lidar"] = tuple(R_LIDAR0 + k for k in range(SENSOR_WIDTH["lidar"]))
 
 SPRING_SIDE, SPRING_CROSS, SPRING_CENTRAL = 0, 1, 2
 """The original's spring groups (docs/original-system.md section 1.2): each has its own range."""
@@ -64,7 +61,7 @@ class System(NamedTuple):
     voxel_corners: np.ndarray  # (B, V, 4) int32 bodies SW, SE, NE, NW (counter-clockwise)
     voxel_x: np.ndarray  # (B, V) grid column of each voxel
     n_readings: np.ndarray  # (B,) int32
-    reading_code: np.ndarray  # (B, R) int32 R_* codes
+    reading_code: np.ndarray  # (B, R) int32 sensor_kinds.reading_code: kind and component
     reading_voxel: np.ndarray  # (B, R) int32
     terrain_of: np.ndarray  # (B,) int32 index into the terrain arrays
     terrain_n: np.ndarray  # (T,) int32 vertices of each terrain
@@ -197,19 +194,9 @@ def place(points: np.ndarray, corners: np.ndarray, terrain: Terrain, gap: float)
 def _readings(body: Body) -> tuple[list[int], list[int]]:
     codes, voxels = [], []
     for reading in body.readings:
-        codes.append(_READING_CODES[reading.kind][reading.component])
+        codes.append(reading_code(reading.kind, reading.component))
         voxels.append(reading.voxel)
     return codes, voxels
-
-
-def pad(rows: Sequence[np.ndarray], tail: tuple, dtype, fill=0) -> np.ndarray:
-    """Stack rows of different lengths into (len(rows), longest, *tail), filling with ``fill``."""
-    longest = max(1, max((len(r) for r in rows), default=0))
-    out = np.full((len(rows), longest) + tail, fill, dtype=dtype)
-    for i, row in enumerate(rows):
-        if len(row):
-            out[i, : len(row)] = row
-    return out
 
 
 def compile_system(

@@ -4,7 +4,7 @@ genome or a controller), a backend's name. Each refuses in one line naming the a
 
 from __future__ import annotations
 
-from ..brain.controllers import GraphArrays, Sine, Table, Zero
+from ..brain.control import CONTROLLER_TYPES
 from ..brain.genome import Genome
 from ..checks import instance, items, named, text
 from ..errors import bad
@@ -45,9 +45,10 @@ def genomes(field: str, value, most: int) -> list:
 
 
 def robot(field: str, value):
-    """``value``, a :class:`~somite.brain.genome.Genome` or a controller (``Zero()``,
-    ``Sine(...)``, ``Table(...)``, a compiled genome)."""
-    return instance(field, value, (Genome, Zero, Sine, Table, GraphArrays),
+    """``value``, a :class:`~somite.brain.genome.Genome` or a controller of a type in
+    :data:`~somite.brain.control.CONTROLLER_TYPES` (``Zero()``, ``Sine(...)``, ``Table(...)``,
+    a compiled genome)."""
+    return instance(field, value, (Genome, *(entry.spec for entry in CONTROLLER_TYPES)),
                     "a Genome or a controller (somite.Zero(), somite.Sine(...), somite.Table(...))")
 
 

@@ -21,8 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._jit import njit, uncounted
-from ..brain.kernels import graph_step
-from ..brain.openloop import sine_actuation, table_actuation
+from ..brain.control import ControlIO, Controllers, control
 from ..sim.config import CONTROL_HZ, Params
 from ..sim.physics import (
     N_CONTACT_COLUMNS,
@@ -46,11 +45,8 @@ from ..sim.robot import (
     robot_in,
     robot_over,
 )
-from ..sim.sensors import angle_mode, sense, update_histories, voxel_state
+from ..sim.sensors import Sensing, angle_mode, sense, update_histories, voxel_state
 from ..sim.system import System
-
-ZERO, SINE, TABLE, GRAPH = 0, 1, 2, 3
-CONTROLLER_KINDS = {"zero": ZERO, "sine": SINE, "table": TABLE, "graph": GRAPH}
 
 STATUS_OK, STATUS_NONFINITE = 0, 1
 
@@ -165,23 +161,6 @@ class RobotState(NamedTuple):
     scratch: Scratch  # views of work's fields
     work: Work
     rays: np.ndarray  # (5, 2) lidar_rays(params)
-
-
-class Controllers(NamedTuple):
-    """Controllers of a batch, padded (N nodes, E edges, L table rows)."""
-
-    kind: np.ndarray  # (B,) int32 ZERO / SINE / TABLE / GRAPH
-    sine: np.ndarray  # (B, 3) freq [Hz], amp, phase [rad per voxel column]
-    table: np.ndarray  # (B, L, V) actuation rows
-    table_period: np.ndarray  # (B,) int32 rows used
-    n_nodes: np.ndarray  # (B,) int32
-    node_kind: np.ndarray  # (B, N) int32 SENSOR / HIDDEN / ACTUATOR
-    node_ref: np.ndarray  # (B, N) int32 reading index (sensor) or voxel index (actuator)
-    n_edges: np.ndarray  # (B,) int32
-    edge_src: np.ndarray  # (B, E) int32 node index
-    edge_dst: np.ndarray  # (B, E) int32 node index
-    edge_weight: np.ndarray  # (B, E)
-    edge_bias: np.ndarray  # (B, E)
 
 
 class Trace(NamedTuple):
@@ -327,22 +306,6 @@ def _record(b, step, state, trace):
         trace.actuation[b, step, v] = actuation[v]
     for r in range(readings.shape[0]):
         trace.readings[b, step, r] = readings[r]
-
-
-@uncounted
-def _control(b, k, ctrl, n_voxels, voxel_x, readings, h_prev, h_next, actuation, params):
-    kind = ctrl.kind[b]
-    if kind == SINE:
-        sine_actuation(k / CONTROL_HZ, ctrl.sine[b, 0], ctrl.sine[b, 1], ctrl.sine[b, 2],
-                       n_voxels, voxel_x, actuation)
-    elif kind == TABLE:
-        table_actuation(k, ctrl.table[b], ctrl.table_period[b], n_voxels, actuation)
-    elif kind == GRAPH:
-        # The two state buffers take turns: step k reads what step k - 1 wrote.
-        old, new = (h_prev, h_next) if k % 2 == 1 else (h_next, h_prev)
-        graph_step(ctrl.n_nodes[b], ctrl.node_kind[b], ctrl.node_ref[b], ctrl.n_edges[b],
-                   ctrl.edge_src[b], ctrl.edge_dst[b], ctrl.edge_weight[b], ctrl.edge_bias[b],
-                   old, new, readings, actuation, params.hidden_sigmoid)
 
 
 @njit
@@ -563,13 +526,13 @@ def after_physics(k, b, batch, state) -> bool:
     near = scratch.segment[robot.n_points]
     tilt = _column_tilt(n_voxels, voxel_x, tally[T_X_LO], tally[T_X_HI], voxels)
     _observe(k, robot, ground, work.blocks, (cx, cy, tilt, near), params, trace.diagnostics[b])
-    update_histories(k - 1, n_voxels, robot.corners, scratch.contact, voxels,
-                     work.senses.touch_hist, work.senses.vel_hist, params)
-    sense(k - 1, seed, n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
-          work.senses.touch_hist, work.senses.vel_hist, state.rays, ground.xs, ground.ys,
-          ground.n, near, params, noise, readings)
-    _control(b, k, ctrl, n_voxels, voxel_x, readings, work.brain.h_prev, work.brain.h_next,
-             actuation, params)
+    senses = work.senses
+    sensing = Sensing(n_readings, system.reading_code[b], system.reading_voxel[b], voxels,
+                      senses.touch_hist, senses.vel_hist, state.rays)
+    update_histories(k - 1, n_voxels, robot.corners, scratch.contact, sensing, params)
+    sense(k - 1, seed, sensing, ground, near, params, noise, readings)
+    control(b, k, k / CONTROL_HZ, ctrl, ControlIO(n_voxels, voxel_x, readings, work.brain.h_prev,
+                                                  work.brain.h_next, actuation), params)
     # The physics clamps actuation to [-1, 1] (a NaN acts as -1): counted, not hidden.
     for v in range(n_voxels):
         if not math.isfinite(actuation[v]):

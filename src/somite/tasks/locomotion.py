@@ -13,15 +13,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import checks
-from ..brain.controllers import GraphArrays, Sine, Table, Zero
+from ..brain.control import Controller, Controllers, compile_controllers
+from ..brain.controllers import GraphArrays
 from ..brain.kinds import ACTUATOR, HIDDEN, SENSOR
 from ..budget import check_batch
-from ..errors import bad, bad_type
+from ..errors import bad
 from ..limits import MAX_BATCH
 from ..sim.body import Body
 from ..sim.config import CONTROL_HZ, SimConfig, pack_params
 from ..sim.sensors import noise_table
-from ..sim.system import System, compile_system, pad
+from ..sim.system import System, compile_system
 from ..sim.terrain import Terrain
 from . import arguments
 from .backends import BACKENDS, get_backend
@@ -30,18 +31,11 @@ from .episode import (
     D_MAX_GAP,
     D_MAX_TILT,
     D_MIN_GAP,
-    GRAPH,
     SETTLE_STEPS,
-    SINE,
     STATUS_OK,
-    TABLE,
-    ZERO,
-    Controllers,
     Trace,
     new_trace,
 )
-
-Controller = Zero | Sine | Table | GraphArrays
 
 
 @dataclass(frozen=True)
@@ -112,62 +106,6 @@ OUTCOME_UNITS = {
 is in a few words, as ``somite simulate`` prints it (its ``--json`` carries the units as
 ``units``). The README ("Honest numbers") says more on each diagnostic; ``min_height`` is a
 vertical distance, see :attr:`Outcome.min_height`."""
-
-
-def compile_controllers(controllers: Sequence[Controller], n_voxels: Sequence[int]) -> Controllers:
-    """Pad a batch of controller specifications into the arrays the kernel reads."""
-    n = len(controllers)
-    kind = np.zeros(n, dtype=np.int32)
-    sine = np.zeros((n, 3))
-    tables: list[np.ndarray] = []
-    graphs: list[GraphArrays | None] = []
-    for b, (ctrl, voxels) in enumerate(zip(controllers, n_voxels)):
-        graph = None
-        table = np.zeros((0, 0))
-        if isinstance(ctrl, Zero):
-            kind[b] = ZERO
-        elif isinstance(ctrl, Sine):
-            kind[b] = SINE
-            sine[b] = (ctrl.freq, ctrl.amp, ctrl.phase)
-        elif isinstance(ctrl, Table):
-            kind[b] = TABLE
-            if ctrl.rows.shape[1] != voxels:
-                raise bad(f"controllers[{b}]", f"a table of {ctrl.rows.shape[1]} columns",
-                          f"its body has {voxels} voxels")
-            table = ctrl.rows
-        elif isinstance(ctrl, GraphArrays):
-            kind[b] = GRAPH
-            graph = ctrl
-        else:
-            raise bad_type(f"controllers[{b}]", ctrl, "a controller (Zero(), Sine(...), "
-                           "Table(...), a compiled Genome) or a Genome")
-        tables.append(table)
-        graphs.append(graph)
-    longest = max(1, max(t.shape[0] for t in tables))
-    width = max(1, max(t.shape[1] for t in tables))
-    table_arr = np.zeros((n, longest, width))
-    for b, t in enumerate(tables):
-        table_arr[b, : t.shape[0], : t.shape[1]] = t
-    empty_i = np.zeros(0, dtype=np.int32)
-    empty_f = np.zeros(0)
-
-    def column(name, empty):
-        return [getattr(g, name) if g is not None else empty for g in graphs]
-
-    return Controllers(
-        kind=kind,
-        sine=sine,
-        table=table_arr,
-        table_period=np.array([max(1, t.shape[0]) for t in tables], dtype=np.int32),
-        n_nodes=np.array([g.n_nodes if g else 0 for g in graphs], dtype=np.int32),
-        node_kind=pad(column("node_kind", empty_i), (), np.int32),
-        node_ref=pad(column("node_ref", empty_i), (), np.int32),
-        n_edges=np.array([g.n_edges if g else 0 for g in graphs], dtype=np.int32),
-        edge_src=pad(column("src", empty_i), (), np.int32),
-        edge_dst=pad(column("dst", empty_i), (), np.int32),
-        edge_weight=pad(column("weight", empty_f), (), np.float64),
-        edge_bias=pad(column("bias", empty_f), (), np.float64),
-    )
 
 
 def outcomes(trace: Trace, config: SimConfig) -> list[Outcome]:

@@ -25,6 +25,7 @@ from PIL import Image, ImageDraw, ImageFont
 from ..errors import bad
 from ..limits import MAX_SPEED, MIN_FPS, MIN_SPEED
 from ..sim.config import CONTROL_HZ, VOXEL_SIDE
+from ..sim.sensor_kinds import SENSORS
 from ..sim.terrain import Terrain
 from .camera import View, follow_view
 from .recording import Recording, lidar_segments
@@ -39,12 +40,8 @@ TEXT = (25, 25, 25)
 RED = np.array([214.0, 40.0, 40.0])
 YELLOW = np.array([250.0, 222.0, 60.0])
 GREEN = np.array([44.0, 168.0, 64.0])
-SENSOR_COLOURS = {
-    "area": (255, 255, 255),
-    "touch": (20, 20, 20),
-    "velocity": (40, 100, 210),
-    "lidar": (220, 30, 30),
-}
+SENSOR_COLOURS = {kind.name: kind.colour for kind in SENSORS}
+"""Sensor kind -> RGB of its sectors (:attr:`somite.sim.sensor_kinds.SensorKind.colour`)."""
 SECTOR_RADIUS = 0.3
 """Radius of the sensor half disc, as a share of the voxel side."""
 GRID_STEP = 5.0

@@ -36,7 +36,7 @@ def uncounted(function):
     for kernels that allocate nothing: every array view they take would otherwise cost an
     atomic increment and decrement of a counter that other threads' robots share (the batch
     kernel ran 10-15% slower on 2 threads). Such a kernel must take its views from functions
-    compiled the same way or inlined into it (``tasks.episode.borrowed_work_row``)."""
+    compiled the same way or inlined into it (``tasks.episode.uncounted_work_row``)."""
     return njit(_nrt=False)(function)
 
 

@@ -82,23 +82,23 @@ def contact_capacity(n_points: int, n_pairs: int) -> int:
 def robot_view(system, b, params) -> Robot:
     """Robot ``b`` of ``system``."""
     n_points = system.n_points[b]
-    return robot_in(system, b, params, np.empty(n_points), np.empty(n_points))
+    return fill_robot(system, b, params, np.empty(n_points), np.empty(n_points))
 
 
 @njit
-def robot_in(system, b, params, inv_mass, inv_inertia) -> Robot:
+def fill_robot(system, b, params, inv_mass, inv_inertia) -> Robot:
     """:func:`robot_view` with its two derived arrays (P,) supplied and filled: a GPU thread
     cannot allocate them."""
     n_points = system.n_points[b]
     for p in range(n_points):
         inv_mass[p] = 1.0 / system.mass[b, p]
         inv_inertia[p] = 1.0 / system.inertia[b, p]
-    return robot_over(system, b, inv_mass, inv_inertia)
+    return filled_robot(system, b, inv_mass, inv_inertia)
 
 
 @njit(inline="always")
-def robot_over(system, b, inv_mass, inv_inertia) -> Robot:
-    """Robot ``b`` over derived arrays that :func:`robot_in` filled before."""
+def filled_robot(system, b, inv_mass, inv_inertia) -> Robot:
+    """Robot ``b`` over derived arrays that :func:`fill_robot` filled before."""
     n_points = system.n_points[b]
     n_springs = system.n_springs[b]
     n_ropes = system.n_ropes[b]
@@ -118,7 +118,7 @@ def robot_over(system, b, inv_mass, inv_inertia) -> Robot:
 @njit(inline="always")
 def ground_view(system, b) -> Ground:
     # Inlined: kernels compiled without reference counting call it, and the views that a
-    # compiled call returns counted would never be released (see episode.borrowed_work_row).
+    # compiled call returns counted would never be released (see episode.uncounted_work_row).
     t = system.terrain_of[b]
     return Ground(system.terrain_n[t], system.terrain_x[t], system.terrain_y[t],
                   system.terrain_nx[t], system.terrain_ny[t])

@@ -40,10 +40,10 @@ from ..sim.robot import (
     Robot,
     Scratch,
     contact_capacity,
+    fill_robot,
+    filled_robot,
     ground_view,
     reset_scratch,
-    robot_in,
-    robot_over,
 )
 from ..sim.sensors import Sensing, angle_mode, sense, update_histories, voxel_state
 from ..sim.system import System
@@ -365,7 +365,7 @@ def work_row(work, b, system, ctrl) -> Work:
 
 
 @uncounted
-def borrowed_work_row(work, b, system, ctrl) -> Work:
+def uncounted_work_row(work, b, system, ctrl) -> Work:
     """:func:`work_row` for kernels compiled without reference counting (``_jit.uncounted``), and
     only for them: the compiled :func:`work_row` returns views that it has counted, which such
     a kernel never releases (each batch's arrays then stayed in memory: 11 MB a batch of 96
@@ -377,14 +377,14 @@ def borrowed_work_row(work, b, system, ctrl) -> Work:
 def robot_state(system, b, params, work, rays) -> RobotState:
     """Robot ``b``'s :class:`RobotState` over ``work`` (its :func:`robot_work` or
     :func:`work_row`) and ``rays`` (:func:`~somite.sim.sensors.lidar_rays`)."""
-    robot_in(system, b, params, work.blocks.inv_mass, work.blocks.inv_inertia)
-    return state_over(system, b, work, rays)
+    fill_robot(system, b, params, work.blocks.inv_mass, work.blocks.inv_inertia)
+    return filled_state(system, b, work, rays)
 
 
 @njit(inline="always")
-def state_over(system, b, work, rays) -> RobotState:
+def filled_state(system, b, work, rays) -> RobotState:
     """:func:`robot_state` over a ``work`` that it has filled before."""
-    robot = robot_over(system, b, work.blocks.inv_mass, work.blocks.inv_inertia)
+    robot = filled_robot(system, b, work.blocks.inv_mass, work.blocks.inv_inertia)
     joints, collisions = work.joints, work.collisions
     scratch = Scratch(joints.rest, work.blocks.cos, work.blocks.sin, joints.spring, joints.rope,
                       joints.weld, collisions.contacts, collisions.previous, collisions.counts,

@@ -34,12 +34,12 @@ from .episode import (
     Batch,
     after_physics,
     before_physics,
-    borrowed_work_row,
+    filled_state,
     finish,
     new_work,
     robot_state,
     start,
-    state_over,
+    uncounted_work_row,
     work_row,
 )
 
@@ -59,9 +59,9 @@ NOT_TIMED = np.zeros(0, dtype=np.uint64)
 
 @njit(inline="always")
 def _lane(batch, b):
-    # Only in kernels compiled without reference counting (borrowed_work_row).
-    return state_over(batch.system, b,
-                      borrowed_work_row(batch.work, b, batch.system, batch.ctrl), batch.rays)
+    # Only in kernels compiled without reference counting (uncounted_work_row).
+    return filled_state(batch.system, b,
+                      uncounted_work_row(batch.work, b, batch.system, batch.ctrl), batch.rays)
 
 
 @njit
@@ -248,7 +248,7 @@ def run_group(batch, first, count, spent):
                           batch.rays))
     control_steps(batch, _group(batch, first, count, spent))
     for b in range(first, first + count):
-        finish(b, batch.trace, state_over(system, b, work_row(work, b, system, batch.ctrl),
+        finish(b, batch.trace, filled_state(system, b, work_row(work, b, system, batch.ctrl),
                                           batch.rays))
 
 

@@ -13,8 +13,8 @@ works on, and each phase is carried out by the solver's own kind:
   lanes of vector instructions, the contacts robot by robot on their lanes.
 
 A kind says how it does a phase with :func:`implements`; Numba picks the implementation by the
-solver's type when it compiles :func:`step` (each phase is a Numba ``overload``, inlined), so
-the order costs nothing at run time. The CUDA backend compiles :func:`step` for one robot: its
+solver's type when it compiles :func:`step` (each phase is a Numba ``overload``), so choosing
+costs nothing at run time; each phase is a call (BENCHMARKS.md, "Kernel round 2, the layout"). The CUDA backend compiles :func:`step` for one robot: its
 twin (``_jit.device_twin``) calls the twins of the phases' ``on_device`` implementations.
 
 Every phase takes ``(solver, params)``; :func:`fix_positions` returns whether the contacts,
@@ -30,40 +30,28 @@ from .._jit import OPTIONS, njit
 _PHASE_OPTIONS = {**{k: v for k, v in OPTIONS.items() if k != "cache"}, "_nrt": False}
 
 
-def begin(solver, params):
-    """Gravity and damping on the velocities; the contacts set up from the positions."""
-    raise TypeError(f"no physics step for a solver of type {type(solver).__name__}")
+def _phase(name: str, doc: str):
+    """A phase of :func:`step`: a function that Numba resolves by the solver's type (called
+    from Python, it says that no kind does it)."""
+
+    def phase(solver, params):
+        raise TypeError(f"no physics step for a solver of type {type(solver).__name__}")
+
+    phase.__name__ = phase.__qualname__ = name
+    phase.__doc__ = doc
+    return phase
 
 
-def start_joints(solver, params):
-    """The springs, rope limits and welds set up and warm-started."""
-    raise TypeError(f"no physics step for a solver of type {type(solver).__name__}")
-
-
-def solve_joints(solver, params):
-    """One velocity pass over the springs, rope limits and welds."""
-    raise TypeError(f"no physics step for a solver of type {type(solver).__name__}")
-
-
-def solve_contacts(solver, params):
-    """One velocity pass over the contacts."""
-    raise TypeError(f"no physics step for a solver of type {type(solver).__name__}")
-
-
-def move(solver, params):
-    """The bodies moved with their velocities and turned."""
-    raise TypeError(f"no physics step for a solver of type {type(solver).__name__}")
-
-
-def fix_positions(solver, params):
-    """One position pass over the contacts, rope limits and welds: whether all hold."""
-    raise TypeError(f"no physics step for a solver of type {type(solver).__name__}")
-
-
-def end(solver, params):
-    """The contacts for the next step found."""
-    raise TypeError(f"no physics step for a solver of type {type(solver).__name__}")
-
+begin = _phase("begin", "Gravity and damping on the velocities; the contacts set up from the "
+                        "positions.")
+start_joints = _phase("start_joints", "The springs, rope limits and welds set up and "
+                                      "warm-started.")
+solve_joints = _phase("solve_joints", "One velocity pass over the springs, rope limits and welds.")
+solve_contacts = _phase("solve_contacts", "One velocity pass over the contacts.")
+move = _phase("move", "The bodies moved with their velocities and turned.")
+fix_positions = _phase("fix_positions", "One position pass over the contacts, rope limits and "
+                                        "welds: whether all hold.")
+end = _phase("end", "The contacts for the next step found.")
 
 PHASES = (begin, start_joints, solve_joints, solve_contacts, move, fix_positions, end)
 """The phases of :func:`step`, in its order (a phase's passes may repeat)."""

@@ -14,8 +14,9 @@ works on, and each phase is carried out by the solver's own kind:
 
 A kind says how it does a phase with :func:`implements`; Numba picks the implementation by the
 solver's type when it compiles :func:`step` (each phase is a Numba ``overload``), so choosing
-costs nothing at run time; each phase is a call (BENCHMARKS.md, "Kernel round 2, the layout"). The CUDA backend compiles :func:`step` for one robot: its
-twin (``_jit.device_twin``) calls the twins of the phases' ``on_device`` implementations.
+costs nothing at run time; each phase is a call (BENCHMARKS.md, "Kernel round 2, the
+layout"). The CUDA backend compiles :func:`step` for one robot: its twin
+(``_jit.device_twin``) calls the twins of the phases' ``on_device`` implementations.
 
 Every phase takes ``(solver, params)``; :func:`fix_positions` returns whether the contacts,
 rope limits and welds all hold after its pass.

@@ -61,7 +61,7 @@ NOT_TIMED = np.zeros(0, dtype=np.uint64)
 def _lane(batch, b):
     # Only in kernels compiled without reference counting (uncounted_work_row).
     return filled_state(batch.system, b,
-                      uncounted_work_row(batch.work, b, batch.system, batch.ctrl), batch.rays)
+                        uncounted_work_row(batch.work, b, batch.system, batch.ctrl), batch.rays)
 
 
 @njit
@@ -240,7 +240,8 @@ def control_steps(batch, group):
 @njit
 def run_group(batch, first, count, spent):
     """The episodes of robots ``first .. first + count - 1``, control step by control step
-    (``spent``: see :func:`step`)."""
+    (``spent``: the cycles of each part of :data:`PARTS` are added to it when it has rows,
+    see :class:`InLanes`)."""
     system, work = batch.system, batch.work
     for b in range(first, first + count):
         start(b, system, batch.params, batch.trace,
@@ -249,7 +250,7 @@ def run_group(batch, first, count, spent):
     control_steps(batch, _group(batch, first, count, spent))
     for b in range(first, first + count):
         finish(b, batch.trace, filled_state(system, b, work_row(work, b, system, batch.ctrl),
-                                          batch.rays))
+                                            batch.rays))
 
 
 def run_groups(batch: Batch, first, count) -> None:

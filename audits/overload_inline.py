@@ -18,10 +18,11 @@ from numba.extending import overload
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from tests.test_reference_step import random_state  # noqa: E402
+
 from somite._jit import njit  # noqa: E402
 from somite.sim import physics as ph  # noqa: E402
 from somite.sim import step as order  # noqa: E402
-from tests.test_reference_step import random_state  # noqa: E402
 
 
 def _inlined(phase):

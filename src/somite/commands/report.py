@@ -18,6 +18,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "validation": "every final best is re-run on them (cached in the report folder)"})
     parser.add_argument("--no-timelapse", action="store_true",
                         help="draw no time-lapse strips")
+    parser.add_argument("--under-way", action="store_true",
+                        help="an interim report: also draw the evolve runs not finished yet in "
+                        "the curves (Figures 3 and 10), to their last logged generation")
     add_options(parser, "quiet")
 
 
@@ -26,7 +29,8 @@ def run(args: argparse.Namespace) -> int:
 
     with stages(args.quiet) as stage:
         report = build_report(args.campaign, args.out, args.validation,
-                              timelapse=not args.no_timelapse, stage=stage)
+                              timelapse=not args.no_timelapse, stage=stage,
+                              under_way=args.under_way)
     if not args.quiet:
         status = report["status"]["experiments"]
         done = sum(s["done"] for s in status.values())

@@ -32,16 +32,18 @@ from .transfer import read_transfer
 
 
 def build_report(campaign_dir: str | Path, out: str | Path, validation: int = VALIDATION_COUNT,
-                 timelapse: bool = True, stage=None) -> dict:
+                 timelapse: bool = True, stage=None, under_way: bool = False) -> dict:
     """Write the report of ``campaign_dir`` into ``out``; returns report.json's data.
-    ``stage(text)``, when given, is told what is being done (it takes seconds to minutes)."""
+    ``stage(text)``, when given, is told what is being done (it takes seconds to minutes).
+    With ``under_way``, the evolve runs not finished yet are drawn in the curves (Figures 3
+    and 10) to their last logged generation, and in no final number."""
     stage = stage or (lambda text: None)
     check_count(validation)
     out = check_output_folder(out)
     stage("reading the campaign")
     campaign = read_campaign(campaign_dir)
     check_apart(campaign_dir, out)
-    loaded = load(campaign)
+    loaded = load(campaign, under_way)
     with staged_report(out) as new:
         report = _write_report(campaign, loaded, new, validation, timelapse, stage)
     return report
@@ -61,7 +63,8 @@ def _write_report(campaign, loaded, new: Path, validation: int, timelapse: bool,
         "campaign": {"name": campaign.name, "source": campaign.source,
                      "directory": str(campaign.root), "experiments": campaign.experiments},
         "caveats": None,  # filled last, from the numbers below; kept first in report.json
-        "status": {"experiments": campaign.status(loaded.broken), "unreadable": loaded.broken},
+        "status": {"experiments": campaign.status(loaded.broken), "unreadable": loaded.broken,
+                   "under_way": _under_way(loaded)},
         "figures": {"fed": campaign.figures, "missing": campaign.missing_figures()},
     }
     stage("drawing the figures")
@@ -121,6 +124,13 @@ def _validation_rows(campaign, loaded, reruns: dict) -> list[dict]:
     shapes = evolution.shape_order(r["shape"] for r in rows)
     return sorted(rows, key=lambda r: (experiments.index(r["experiment"]),
                                        shapes.index(r["shape"])))
+
+
+def _under_way(loaded) -> dict:
+    """Each run under way that the report drew: the last generation it logged, of how many."""
+    return {task: {"generation": int(run.log["generation"][-1]),
+                   "generations": run.config.get("generations")}
+            for task, run in loaded.under_way.items()}
 
 
 def _add(report: dict, entries: dict) -> None:

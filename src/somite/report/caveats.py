@@ -1,10 +1,11 @@
 """What the report says before any number: when the campaign's numbers mean little.
 
-Three caveats, each in report.json's ``caveats`` with the text index.md shows at its top (and
+Four caveats, each in report.json's ``caveats`` with the text index.md shows at its top (and
 ``somite report`` prints as a warning): a budget too small for evolution to have done anything
 (:data:`MIN_GENERATIONS`), episodes no longer than their transient (v_x over the whole
-episode), and p-values of groups too small for them (:data:`~somite.analysis.stats.
-MIN_GROUP_SIZE`, marked beside each p-value as well).
+episode), p-values of groups too small for them (:data:`~somite.analysis.stats.
+MIN_GROUP_SIZE`, marked beside each p-value as well) and an interim report, one that draws
+runs still under way.
 """
 
 from __future__ import annotations
@@ -96,13 +97,30 @@ def _tests(data):
             yield from _tests(value)
 
 
+def under_way(report: dict) -> dict:
+    """The runs still under way that the curves show (``somite report --under-way``), and
+    the caveat that the report is an interim one."""
+    found = (report.get("status") or {}).get("under_way") or {}
+    out = {"tasks": list(found), "caveat": None}
+    if found:
+        runs = ", ".join(f"{task} at generation {r['generation']}"
+                         + (f" of {r['generations']}" if r.get("generations") else "")
+                         for task, r in found.items())
+        out["caveat"] = (
+            f"interim report: {_count(len(found), 'run')} still under way ({runs}) "
+            "drawn in the curves of Figures 3 and 10 to their last logged generation; every "
+            "table, test and final figure holds the finished runs only")
+    return out
+
+
 def caveats(campaign: CampaignFolder, runs: dict[str, RunLog], report: dict) -> dict:
-    """report.json's ``caveats``: each of the three, and ``banner``, the texts of those that
+    """report.json's ``caveats``: each of the four, and ``banner``, the texts of those that
     apply, in the order index.md shows them."""
     out = {"budget": budget(campaign, runs), "whole_episode": whole_episode(runs),
-           "small_groups": small_groups(report)}
+           "small_groups": small_groups(report), "under_way": under_way(report)}
     out["banner"] = [c["caveat"] for c in out.values() if c["caveat"]]
     return out
 
 
-__all__ = ["MIN_GENERATIONS", "budget", "caveats", "small_groups", "whole_episode"]
+__all__ = ["MIN_GENERATIONS", "budget", "caveats", "small_groups", "under_way",
+           "whole_episode"]

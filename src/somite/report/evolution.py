@@ -52,14 +52,19 @@ def shape_order(shapes) -> list[str]:
     return sorted(set(shapes), key=lambda s: (SHAPES.index(s) if s in SHAPES else 9, s))
 
 
-def groups(campaign: CampaignFolder, loaded: Loaded, members: dict[str, str]) -> Groups:
-    """The finished runs of the experiments ``members`` (id -> label), per shape and label."""
+def groups(campaign: CampaignFolder, loaded: Loaded, members: dict[str, str],
+           under_way: bool = False) -> Groups:
+    """The finished runs of the experiments ``members`` (id -> label), per shape and label;
+    with ``under_way``, also the runs still under way that the report read."""
     found: dict[str, dict[str, dict[str, RunLog]]] = {}
     for experiment, label in members.items():
         for task in campaign.of(experiment, "evolve"):
-            if task.id in loaded.runs:
-                shape = task_shape(task, loaded)
-                found.setdefault(shape, {}).setdefault(label, {})[task.id] = loaded.runs[task.id]
+            run = loaded.runs.get(task.id)
+            if run is None and under_way:
+                run = loaded.under_way.get(task.id)
+            if run is not None:
+                shape = shape_name(run.config["shape"])
+                found.setdefault(shape, {}).setdefault(label, {})[task.id] = run
     return {s: {label: found[s][label] for label in members.values() if label in found[s]}
             for s in shape_order(found)}
 
@@ -115,9 +120,12 @@ def _paper_table1(shape: str) -> dict | None:
     }
 
 
-def curves(found: Groups) -> dict:
+def curves(found: Groups, under_way: dict[str, RunLog] | None = None) -> dict:
     """Per shape and group: median and sd across runs, per generation, of the best's v_x and
-    |G|, and the median of the logged validation v_x where it was measured."""
+    |G|, and the median of the logged validation v_x where it was measured; ``under_way``:
+    each of the group's runs that is among ``under_way`` (not finished), with the last
+    generation it logged."""
+    under_way = under_way or {}
     out = {}
     for shape, labelled in found.items():
         out[shape] = {}
@@ -127,7 +135,10 @@ def curves(found: Groups) -> dict:
             x, validation, _ = curve(list(runs.values()), "validation_velocity")
             shown = np.isfinite(validation)
             out[shape][label] = {
-                "runs": list(runs), "generation": generation.tolist(),
+                "runs": list(runs),
+                "under_way": {i: int(run.log["generation"][-1]) for i, run in runs.items()
+                              if i in under_way},
+                "generation": generation.tolist(),
                 "velocity_median": v_median.tolist(), "velocity_sd": v_sd.tolist(),
                 "size_median": g_median.tolist(), "size_sd": g_sd.tolist(),
                 "validation_generation": x[shown].tolist(),
@@ -183,8 +194,9 @@ def build(inputs: Inputs) -> dict:
     out = {"table1": table1(campaign, loaded, inputs.reruns)}
     for key, members in (("figure3", campaign.fed("figure3")),
                          ("figure10", campaign.fed("figure10"))):
-        found = groups(campaign, loaded, members)
-        out[key] = {"curves": curves(found),
+        # Runs under way (read only on request) are curves so far: never a final number.
+        found = groups(campaign, loaded, members, under_way=True)
+        out[key] = {"curves": curves(found, loaded.under_way),
                     "files": inputs.save(figures.curves_figure, found, key, TITLES[key])}
     for key, members in (("figure5", campaign.fed("figure5")),
                          ("figure11", campaign.fed("figure10"))):
@@ -267,10 +279,24 @@ def _render_curves(report: dict) -> list[str]:
         lines += [f"## {title}", "",
                   "Median ± sd across runs (line and band); dashed with dots: the median of the "
                   "logged validation v_x, where the runs measured it.", ""]
+        lines += _under_way_note(report[key]["curves"])
         if key == "figure3":
             lines += _figure3_beside_paper(report["figure3"])
         lines += images(report[key]["files"], title)
     return lines
+
+
+def _under_way_note(found: dict) -> list[str]:
+    """The line that says which curves are of runs still under way, and how far each got."""
+    shown = {}
+    for labelled in found.values():
+        for c in labelled.values():
+            shown.update(c.get("under_way", {}))  # absent from reports written before
+    if not shown:
+        return []
+    runs = ", ".join(f"{task} (generation {g})" for task, g in shown.items())
+    return [f"Under way, drawn to their last logged generation and in no final number: {runs}.",
+            ""]
 
 
 def _figure3_beside_paper(data: dict) -> list[str]:

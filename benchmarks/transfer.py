@@ -2,24 +2,32 @@
 
 The transfer check: for each run directory (``somite evolve ... --out DIR``) it takes the best
 genome of generations 0, G, 2G, ... (``--every G``) and of the last generation from the run's
-``bests.jsonl``, re-runs each on a fixed set of terrains (``--terrains``) in somite, with the
-run's own preset, and in 2D-VSR-Sim through the Java driver of
-``shared/tools/closed-loop-2dvsrsim/`` (``CL genomes``: the authors' graph controller with the
-authors' code's sensors, 30 s episodes, v_x over [5 s, 30 s]; genomes converted by its
-``export_genomes.py``), with the run's sensor noise sigma (0.01 in both presets). Both sides use
-the driver's episode: 30 s, v_x from 5 s on, whatever the run's own ``duration``. It prints, as
-JSON:
+``bests.jsonl``, re-runs each on a fixed set of terrains (``--terrains``) in 2D-VSR-Sim through
+the Java driver of ``shared/tools/closed-loop-2dvsrsim/`` (``CL genomes``: the authors' graph
+controller with the authors' code's sensors, 30 s episodes, v_x over [5 s, 30 s]; genomes
+converted by its ``export_genomes.py``) and in somite, twice: on the driver's sensors and with
+the run's own. Both sides use the driver's episode: 30 s, v_x from 5 s on, whatever the run's
+own ``duration``, and the run's sensor noise sigma (0.01 in both presets).
 
-- per run and sampled generation: ``somite_vx`` and ``vsr_vx``, each the mean v_x [m/s] over the
-  terrains (NaN, ``null``, when any terrain is), ``ratio`` = ``vsr_vx / somite_vx``, the logged
-  ``training_velocity`` and the per-terrain cells;
-- per run: ``median_ratio``, the median of the ratios of the sampled generations from ``--from``
-  on (ratios that are not finite left out and counted);
-- ``shapes``: per shape, the median of the runs' median ratios.
+The driver has one set of sensors, the authors' code's (somite's ``original-code`` preset:
+voxel frames, windows, its lidar angles, its noise), and runs hidden nodes as the run did
+(``HIDDEN``: sigmoid for ``original-code``, tanh for ``paper``). So the like-for-like comparison,
+the one that measures the physics, is somite on those same sensors (the ``original-code``
+sensors with the run's hidden activation) against 2D-VSR-Sim. A ``paper`` run was evolved on
+other sensors (world frames, no windows): what it loses when its controller reads the code's
+sensors is a second number, measured in somite alone. It prints, as JSON:
 
-2D-VSR-Sim runs what somite's ``original-code`` preset models (the code's sensors, windows,
-frames and sigmoid hidden nodes). A run of another preset is compared all the same, but says so:
-``preset_mismatch: true``, and the shape's median leaves it out (it gets its own). Likewise
+- per run and sampled generation: ``somite_vx`` (the driver's sensors), ``somite_own_vx`` (the
+  run's own preset; the same number for an ``original-code`` run) and ``vsr_vx``, each the mean
+  v_x [m/s] over the terrains (NaN, ``null``, when any terrain is); ``ratio`` =
+  ``vsr_vx / somite_vx``, the physics; ``overall_ratio`` = ``vsr_vx / somite_own_vx``, what
+  the run keeps of its own speed in the paper's simulator; the logged ``training_velocity``
+  and the per-terrain cells;
+- per run: ``median_ratio`` and ``median_overall_ratio``, the medians of the sampled
+  generations' ratios from ``--from`` on (ratios that are not finite left out and counted);
+  ``preset_mismatch`` when its own sensors are not the driver's;
+- ``shapes``: per shape, the median of the runs' median ratios, of both kinds.
+
 ``episode_mismatch`` flags a run evolved on episodes other than 30 s from 5 s. Bodies other than
 the worm and the biped with the paper's sensors are refused: the driver cannot build them.
 
@@ -38,7 +46,8 @@ holds dyn4j's classes, so that a variant of the engine built beside them runs in
 ``../shared/tools/closed-loop-2dvsrsim/export_genomes.py`` from the repository root).
 ``--campaign DIR`` (the runs being tasks of the campaign in DIR) also writes each run's last
 sampled generation into ``DIR/transfer.csv``, the file the transfer section of ``somite report``
-reads (``task,engine,generation,somite_vx,vsr_vx,ratio``; engine ``noccd`` when ``--dyn4j``
+reads (``task,engine,generation,somite_vx,vsr_vx,ratio,somite_own_vx,overall_ratio``; engine
+``noccd`` when ``--dyn4j``
 names the build without continuous collision detection, else ``stock``): rows of other runs or
 of the other engine are kept, so running it once per engine fills the table. A ratio
 of speeds near zero is noise: look at the medians, and at ``somite_vx`` beside it.
@@ -75,7 +84,10 @@ ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_EXPORT = ROOT.parent / "shared/tools/closed-loop-2dvsrsim/export_genomes.py"
 DEFAULT_TERRAINS = ("flat", *(f"hilly-1-10-{10000 + i}" for i in range(5)))
 DRIVER_PRESET = "original-code"
-"""What 2D-VSR-Sim's driver runs: somite's name for the authors' code's sensors and controller."""
+"""The sensors 2D-VSR-Sim's driver reads: somite's name for the authors' code's sensors (its
+hidden nodes follow the run: :func:`driver_config`)."""
+DRIVER_HIDDEN = ("sigmoid", "tanh")
+"""The hidden activations CL.java runs (its ``HIDDEN``)."""
 DRIVER_DURATION, DRIVER_TRANSIENT = 30.0, 5.0
 """CL.java's episode: ``new Locomotion(30, ...)``, v_x of ``subOutcome(5, 30)``."""
 DRIVER_SHAPES = {"worm": "worm-6x2", "biped": "biped-4x3"}
@@ -200,6 +212,17 @@ def sim_config(config: RunConfig) -> SimConfig:
     return preset(config.preset, duration=DRIVER_DURATION, transient=DRIVER_TRANSIENT)
 
 
+def driver_config(config: RunConfig) -> SimConfig:
+    """What the driver runs, in somite: the code's sensors (:data:`DRIVER_PRESET`) and the
+    run's hidden activation, on the driver's episode; the two presets share their physics."""
+    own = sim_config(config)
+    if own.hidden_activation not in DRIVER_HIDDEN:
+        raise bad("run", config.preset, f"hidden activation {own.hidden_activation!r}: the "
+                  f"driver runs only {list(DRIVER_HIDDEN)}")
+    return preset(DRIVER_PRESET, hidden_activation=own.hidden_activation,
+                  duration=DRIVER_DURATION, transient=DRIVER_TRANSIENT)
+
+
 def sigma_text(sigma: float) -> str:
     """A noise sigma as the driver's argument (it builds ``spinedTouchSighted-f-f-SIGMA``)."""
     return "0" if sigma == 0 else repr(float(sigma))
@@ -269,9 +292,10 @@ def _last_line(text: str) -> str:
 
 
 def run_driver(genomes: dict[str, dict], terrains: list[str], sigmas: list[float], vsr: str,
-               export: Path, threads: int, java: tuple[str, str]) -> dict:
-    """Every genome (name -> genome JSON) x terrain x sigma in 2D-VSR-Sim: v_x by (name,
-    terrain, sigma). Exports the genomes, runs ``CL genomes`` in a temporary folder."""
+               export: Path, threads: int, java: tuple[str, str], hidden: str) -> dict:
+    """Every genome (name -> genome JSON) x terrain x sigma in 2D-VSR-Sim, its hidden nodes
+    ``hidden``: v_x by (name, terrain, sigma). Exports the genomes, runs ``CL genomes`` in a
+    temporary folder."""
     executable, classpath = java
     with tempfile.TemporaryDirectory(prefix="somite-transfer-") as tmp:
         source = Path(tmp) / "genomes.jsonl"
@@ -282,11 +306,11 @@ def run_driver(genomes: dict[str, dict], terrains: list[str], sigmas: list[float
         if done.returncode != 0:
             raise bad("export", str(export), f"failed: {_last_line(done.stderr)}")
         (Path(tmp) / "genomes.txt").write_text(done.stdout)
-        env = {**os.environ, "THREADS": str(threads), "HIDDEN": "sigmoid"}
+        env = {**os.environ, "THREADS": str(threads), "HIDDEN": hidden}
         command = [executable, "-cp", classpath, "CL", "genomes", "genomes.txt", ",".join(terrains),
                    ",".join(sigma_text(s) for s in sigmas), "out.csv"]
         sys.stderr.write(f"transfer: 2D-VSR-Sim: {len(genomes) * len(terrains) * len(sigmas)} "
-                         f"episodes of 30 s on {threads} threads\n")
+                         f"episodes of 30 s, {hidden} hidden nodes, on {threads} threads\n")
         done = subprocess.run(command, capture_output=True, text=True, cwd=tmp, env=env)
         out = Path(tmp) / "out.csv"
         if done.returncode != 0 or not out.is_file():
@@ -304,31 +328,38 @@ def compare(runs: list[Run], terrains: list[Terrain], vsr_cells: dict, seed: int
     """The JSON report: somite and 2D-VSR-Sim v_x of every run's sampled generations."""
     report_runs = []
     for run in runs:
-        config = sim_config(run.config)
+        config, own = driver_config(run.config), sim_config(run.config)
         sigma = float(config.noise_sigma)
-        somite_vx = evaluate([e["genome"] for e in run.entries], terrains, config, seed=seed)
+        genomes = [e["genome"] for e in run.entries]
+        somite_vx = evaluate(genomes, terrains, config, seed=seed)
+        own_vx = somite_vx if own == config else evaluate(genomes, terrains, own, seed=seed)
         generations = []
-        for entry, row in zip(run.entries, somite_vx):
-            name = names[_key(entry["data"])]
+        for entry, row, own_row in zip(run.entries, somite_vx, own_vx):
+            name = names[_key(entry["data"], config.hidden_activation)]
             vsr_row = np.array([vsr_cells.get((name, t.name, sigma), math.nan) for t in terrains])
-            s, v = float(mean_velocity(row)), float(mean_velocity(vsr_row))
+            s, o, v = (float(mean_velocity(r)) for r in (row, own_row, vsr_row))
             generations.append({
                 "generation": entry["generation"],
                 "training_velocity": entry["velocity"],
                 "somite_vx": _number(s),
+                "somite_own_vx": _number(o),
                 "vsr_vx": _number(v),
                 "ratio": _number(ratio(v, s)),
-                "terrains": {t.name: {"somite": _number(a), "vsr": _number(b)}
-                             for t, a, b in zip(terrains, row, vsr_row)},
+                "overall_ratio": _number(ratio(v, o)),
+                "terrains": {t.name: {"somite": _number(a), "somite_own": _number(c),
+                                      "vsr": _number(b)}
+                             for t, a, c, b in zip(terrains, row, own_row, vsr_row)},
             })
         counted = [g for g in generations if g["generation"] >= start]
         ratios = [g["ratio"] for g in counted if g["ratio"] is not None]
+        overall = [g["overall_ratio"] for g in counted if g["overall_ratio"] is not None]
         episode = {"duration": run.config.duration, "transient": run.config.transient}
         report_runs.append({
             "run": run.path,
             "shape": run.shape,
             "preset": run.config.preset,
-            "preset_mismatch": run.config.preset != DRIVER_PRESET,
+            "preset_mismatch": own != config,
+            "hidden": config.hidden_activation,
             "episode": episode,
             "episode_mismatch": episode != {"duration": DRIVER_DURATION,
                                             "transient": DRIVER_TRANSIENT},
@@ -336,23 +367,24 @@ def compare(runs: list[Run], terrains: list[Terrain], vsr_cells: dict, seed: int
             "last_generation": run.last,
             "generations": generations,
             "median_ratio": _number(median(ratios)),
+            "median_overall_ratio": _number(median(overall)),
             "ratios_counted": len(ratios),
             "ratios_left_out": len(counted) - len(ratios),
         })
     shapes = {}
     for shape in sorted({r["shape"] for r in report_runs}):
         mine = [r for r in report_runs if r["shape"] == shape]
-        matched = [r["median_ratio"] for r in mine if not r["preset_mismatch"]]
-        other = [r["median_ratio"] for r in mine if r["preset_mismatch"]]
-        shapes[shape] = {"runs": len(matched), "median_ratio": _number(median(matched))}
-        if other:
-            shapes[shape].update(runs_preset_mismatch=len(other),
-                                 median_ratio_preset_mismatch=_number(median(other)))
+        shapes[shape] = {
+            "runs": len(mine),
+            "median_ratio": _number(median([r["median_ratio"] for r in mine])),
+            "median_overall_ratio": _number(median([r["median_overall_ratio"] for r in mine])),
+            "runs_preset_mismatch": sum(r["preset_mismatch"] for r in mine)}
     return {"runs": report_runs, "shapes": shapes}
 
 
-def _key(genome_data: dict) -> str:
-    return json.dumps(genome_data, sort_keys=True)
+def _key(genome_data: dict, hidden: str) -> str:
+    """A genome as the driver runs it: its JSON and the hidden activation."""
+    return json.dumps([genome_data, hidden], sort_keys=True)
 
 
 def transfer(paths: list[str], every: int = 50, start: int = 50,
@@ -371,16 +403,19 @@ def transfer(paths: list[str], every: int = 50, start: int = 50,
     java = find_java(vsr, dyn4j)
     script = check_export(str(export))
     names: dict[str, str] = {}  # genome JSON -> driver name; a genome kept for many generations
-    by_name: dict[str, dict] = {}  # runs once
+    by_hidden: dict[str, dict[str, dict]] = {}  # runs once, with its run's hidden nodes
     for run in runs:
+        hidden = driver_config(run.config).hidden_activation
         for entry in run.entries:
-            key = _key(entry["data"])
+            key = _key(entry["data"], hidden)
             if key not in names:
                 names[key] = f"genome-{len(names):05d}"
-                by_name[names[key]] = entry["data"]
-    sigmas = sorted({float(sim_config(run.config).noise_sigma) for run in runs})
-    cells = run_driver(by_name, [t.name for t in terrains], sigmas, str(vsr), script, threads,
-                       java)
+                by_hidden.setdefault(hidden, {})[names[key]] = entry["data"]
+    sigmas = sorted({float(driver_config(run.config).noise_sigma) for run in runs})
+    cells = {}
+    for hidden, genomes in by_hidden.items():
+        cells.update(run_driver(genomes, [t.name for t in terrains], sigmas, str(vsr), script,
+                                threads, java, hidden))
     report = compare(runs, terrains, cells, seed, start, names)
     return {
         "terrains": [t.name for t in terrains],
@@ -388,9 +423,9 @@ def transfer(paths: list[str], every: int = 50, start: int = 50,
         "from": start,
         "seed": seed,
         "episode": {"duration": DRIVER_DURATION, "transient": DRIVER_TRANSIENT},
-        "driver": {"vsr": str(vsr), "dyn4j": dyn4j, "preset": DRIVER_PRESET,
-                   "hidden": "sigmoid",
-                   "threads": threads, "episodes": len(cells), "genomes": len(by_name)},
+        "driver": {"vsr": str(vsr), "dyn4j": dyn4j, "sensors": DRIVER_PRESET,
+                   "hidden": sorted(by_hidden),
+                   "threads": threads, "episodes": len(cells), "genomes": len(names)},
         **report,
     }
 
@@ -401,7 +436,8 @@ class _Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
-CAMPAIGN_COLUMNS = ("task", "engine", "generation", "somite_vx", "vsr_vx", "ratio")
+CAMPAIGN_COLUMNS = ("task", "engine", "generation", "somite_vx", "vsr_vx", "ratio",
+                    "somite_own_vx", "overall_ratio")
 """The columns of a campaign's ``transfer.csv`` (somite.report.transfer reads them)."""
 
 

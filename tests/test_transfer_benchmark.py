@@ -4,6 +4,7 @@ one end-to-end run that needs a build of the 2D-VSR-Sim driver (env ``VSR``). No
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -91,37 +92,62 @@ def test_ratio_and_median():
     assert math.isnan(transfer.median([None, math.nan]))
 
 
+def test_the_driver_runs_the_code_s_sensors_with_the_run_s_hidden_nodes(runs):
+    worm, biped = (transfer.load_run(str(runs / name), 2).config for name in ("worm", "biped"))
+    assert transfer.driver_config(worm) == transfer.sim_config(worm)  # original-code: itself
+    paper, driven = transfer.sim_config(biped), transfer.driver_config(biped)
+    assert paper.hidden_activation == driven.hidden_activation == "tanh"
+    code = transfer.sim_config(worm)
+    for name in ("lidar_angles", "lidar_frame", "touch_window", "velocity_window",
+                 "velocity_frame", "noise_stream", "voxel_angle", "noise_sigma"):
+        assert getattr(driven, name) == getattr(code, name), name
+    assert dataclasses.replace(driven, hidden_activation="sigmoid") == code
+    assert (driven.duration, driven.transient) == (30.0, 5.0)
+
+
 def test_compare_ratios_medians_and_the_preset_mismatch(runs):
     terrains = [parse_terrain("flat"), parse_terrain("hilly-1-10-10000")]
     loaded = [transfer.load_run(str(runs / name), 2) for name in ("worm", "biped")]
-    names, cells = {}, {}
-    for run in loaded:  # a fake 2D-VSR-Sim: half of somite's speed, on every terrain
-        velocities = evaluate([e["genome"] for e in run.entries], terrains,
-                              transfer.sim_config(run.config))
+    names, cells, own = {}, {}, {}
+    for run in loaded:  # a fake 2D-VSR-Sim: half of somite's speed on the same sensors
+        config = transfer.driver_config(run.config)
+        genomes = [e["genome"] for e in run.entries]
+        velocities = evaluate(genomes, terrains, config)
+        own[run.shape] = evaluate(genomes, terrains, transfer.sim_config(run.config))
         for entry, row in zip(run.entries, velocities):
-            name = names.setdefault(transfer._key(entry["data"]), f"genome-{len(names):05d}")
+            key = transfer._key(entry["data"], config.hidden_activation)
+            name = names.setdefault(key, f"genome-{len(names):05d}")
             for t, v in zip(terrains, row):
                 cells[(name, t.name, 0.01)] = v / 2
     out = transfer.compare(loaded, terrains, cells, seed=0, start=2, names=names)
     worm, biped = out["runs"]
     assert [g["generation"] for g in worm["generations"]] == [0, 2, 4]
     assert not worm["preset_mismatch"] and biped["preset_mismatch"]
+    assert (worm["hidden"], biped["hidden"]) == ("sigmoid", "tanh")
     assert worm["episode_mismatch"] and worm["episode"] == {"duration": 2.0, "transient": 5.0}
     assert worm["noise_sigma"] == 0.01
     for run in out["runs"]:
-        for g in run["generations"]:
+        for g, row in zip(run["generations"], own[run["shape"]]):
             assert g["vsr_vx"] == pytest.approx(g["somite_vx"] / 2)
             assert g["ratio"] == pytest.approx(0.5)
+            assert g["somite_own_vx"] == float(transfer.mean_velocity(row))
+            assert g["overall_ratio"] == pytest.approx(g["vsr_vx"] / g["somite_own_vx"])
             assert set(g["terrains"]) == {"flat", "hilly-1-10-10000"}
         assert run["median_ratio"] == pytest.approx(0.5)
         assert run["ratios_counted"] == 2 and run["ratios_left_out"] == 0  # generations 2, 4
-    assert out["shapes"]["worm"] == {"runs": 1, "median_ratio": pytest.approx(0.5)}
-    assert out["shapes"]["biped"]["runs"] == 0 and out["shapes"]["biped"]["median_ratio"] is None
-    assert out["shapes"]["biped"]["median_ratio_preset_mismatch"] == pytest.approx(0.5)
+    for g in worm["generations"]:  # its own sensors are the driver's
+        assert g["somite_own_vx"] == g["somite_vx"] and g["overall_ratio"] == g["ratio"]
+    assert out["shapes"]["worm"] == {"runs": 1, "median_ratio": pytest.approx(0.5),
+                                     "median_overall_ratio": pytest.approx(0.5),
+                                     "runs_preset_mismatch": 0}
+    assert out["shapes"]["biped"]["runs"] == 1 and out["shapes"]["biped"][
+        "runs_preset_mismatch"] == 1
+    assert out["shapes"]["biped"]["median_ratio"] == pytest.approx(0.5)
+    assert out["shapes"]["biped"]["median_overall_ratio"] == biped["median_overall_ratio"]
     # A genome the driver has no cell for is NaN there, and left out of the median.
-    last = names[transfer._key(loaded[0].entries[-1]["data"])]
+    last = names[transfer._key(loaded[0].entries[-1]["data"], "sigmoid")]
     lost = [g for g, e in zip(worm["generations"], loaded[0].entries)
-            if names[transfer._key(e["data"])] == last and g["generation"] >= 2]
+            if names[transfer._key(e["data"], "sigmoid")] == last and g["generation"] >= 2]
     kept = {k: v for k, v in cells.items() if k[0] != last}
     worm = transfer.compare(loaded[:1], terrains, kept, 0, 2, names)["runs"][0]
     assert worm["generations"][-1]["vsr_vx"] is None and worm["generations"][-1]["ratio"] is None
@@ -197,21 +223,27 @@ VSR = os.environ.get("VSR")
                     reason="needs a build of the 2D-VSR-Sim driver in env VSR")
 @pytest.mark.skipif(not transfer.DEFAULT_EXPORT.exists(), reason="no export_genomes.py beside")
 def test_end_to_end(runs):
+    """A run of each preset: the driver runs each with its own hidden nodes, somite each on
+    the driver's sensors and on its own."""
     done = subprocess.run([sys.executable, str(ROOT / "benchmarks/transfer.py"), str(runs / "worm"),
-                           "--every", "4", "--from", "0", "--terrains", "flat"],
-                          capture_output=True, text=True, cwd=ROOT, timeout=600)
+                           str(runs / "biped"), "--every", "4", "--from", "0", "--terrains",
+                           "flat"], capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
+    assert "sigmoid hidden nodes" in done.stderr and "tanh hidden nodes" in done.stderr
     out = json.loads(done.stdout)
-    (run,) = out["runs"]
-    assert [g["generation"] for g in run["generations"]] == [0, 4]
-    assert not run["preset_mismatch"] and out["terrains"] == ["flat"]
-    loaded = transfer.load_run(str(runs / "worm"), 4)
-    somite = evaluate([e["genome"] for e in loaded.entries], [parse_terrain("flat")],
-                      transfer.sim_config(loaded.config))
-    for g, v in zip(run["generations"], somite[:, 0]):
-        assert g["somite_vx"] == v and math.isfinite(g["vsr_vx"])
-        assert g["ratio"] == pytest.approx(g["vsr_vx"] / g["somite_vx"])
-    assert out["shapes"]["worm"]["runs"] == 1
+    assert out["driver"]["hidden"] == ["sigmoid", "tanh"] and out["terrains"] == ["flat"]
+    for run, name in zip(out["runs"], ("worm", "biped")):
+        assert [g["generation"] for g in run["generations"]] == [0, 4]
+        assert run["preset_mismatch"] == (name == "biped")
+        loaded = transfer.load_run(str(runs / name), 4)
+        genomes = [e["genome"] for e in loaded.entries]
+        somite = evaluate(genomes, [parse_terrain("flat")], transfer.driver_config(loaded.config))
+        own = evaluate(genomes, [parse_terrain("flat")], transfer.sim_config(loaded.config))
+        for g, v, o in zip(run["generations"], somite[:, 0], own[:, 0]):
+            assert g["somite_vx"] == v and g["somite_own_vx"] == o
+            assert math.isfinite(g["vsr_vx"])
+            assert g["ratio"] == pytest.approx(g["vsr_vx"] / g["somite_vx"])
+        assert out["shapes"][name]["runs"] == 1
 
 
 def test_campaign_rows_feed_the_reports_transfer_section(tmp_path, capsys):
@@ -226,7 +258,8 @@ def test_campaign_rows_feed_the_reports_transfer_section(tmp_path, capsys):
     def out(ratios):
         return {"runs": [{"run": str(run), "generations": [
             {"generation": 0, "somite_vx": 1.0, "vsr_vx": 9.0, "ratio": 9.0},
-            {"generation": 3000, "somite_vx": 2.0, "vsr_vx": r and 2.0 * r, "ratio": r}]}
+            {"generation": 3000, "somite_vx": 2.0, "vsr_vx": r and 2.0 * r, "ratio": r,
+             "somite_own_vx": 4.0, "overall_ratio": r and r / 2}]}
             for run, r in zip(runs, ratios)]}
 
     assert transfer.engine_of("classes-dyn4j-noccd") == "noccd"
@@ -239,10 +272,11 @@ def test_campaign_rows_feed_the_reports_transfer_section(tmp_path, capsys):
     transfer.write_campaign_csv(campaign, transfer.campaign_rows(out([0.6, 0.8]), campaign,
                                                                  "stock"))  # replaces
     lines = (campaign / "transfer.csv").read_text().splitlines()
-    assert lines[0] == "task,engine,generation,somite_vx,vsr_vx,ratio"
-    assert lines[1:] == ["rq1/worm-s0,noccd,3000,2.0,1.8,0.9",
-                         "rq1/worm-s0,stock,3000,2.0,1.2,0.6", "rq1/worm-s1,noccd,3000,2.0,,",
-                         "rq1/worm-s1,stock,3000,2.0,1.6,0.8"]
+    assert lines[0] == "task,engine,generation,somite_vx,vsr_vx,ratio,somite_own_vx,overall_ratio"
+    assert lines[1:] == ["rq1/worm-s0,noccd,3000,2.0,1.8,0.9,4.0,0.45",
+                         "rq1/worm-s0,stock,3000,2.0,1.2,0.6,4.0,0.3",
+                         "rq1/worm-s1,noccd,3000,2.0,,,4.0,",
+                         "rq1/worm-s1,stock,3000,2.0,1.6,0.8,4.0,0.4"]
     with pytest.raises(SomiteError, match="not a task folder"):
         transfer.campaign_rows({"runs": [{"run": str(tmp_path), "generations": [{}]}]},
                                campaign, "stock")
@@ -250,9 +284,18 @@ def test_campaign_rows_feed_the_reports_transfer_section(tmp_path, capsys):
     found = read_transfer(campaign, tasks)
     summary = {s["engine"]: s for s in found["summary"]}
     assert summary["stock"]["median_ratio"] == pytest.approx(0.7)
+    assert summary["stock"]["median_overall_ratio"] == pytest.approx(0.35)
     assert (summary["noccd"]["median_ratio"], summary["noccd"]["not_finite"]) == (0.9, 1)
     text = "\n".join(_transfer({"transfer": found}))
-    assert "| rq1 | worm | stock | 2 | 0.700 | 0 |" in text
+    assert "| rq1 | worm | stock | 2 | 0.700 | 0.350 | 0 |" in text
+    assert "| rq1/worm-s0 | stock | 3000 | 4.000 | 2.000 | 1.200 | 0.600 | 0.300 |" in text
+    # a file written before the last two columns existed is read, those cells n/a
+    (campaign / "transfer.csv").write_text("task,engine,generation,somite_vx,vsr_vx,ratio\n"
+                                           "rq1/worm-s0,stock,3000,2.0,1.2,0.6\n")
+    old = read_transfer(campaign, tasks)
+    assert old["summary"][0]["median_overall_ratio"] is None
+    assert "| rq1/worm-s0 | stock | 3000 | n/a | 2.000 | 1.200 | 0.600 | n/a |" in "\n".join(
+        _transfer({"transfer": old}))
     assert "Not measured" not in text
     missing = read_transfer(tmp_path, tasks)
     assert "Not measured yet" in "\n".join(_transfer({"transfer": missing}))

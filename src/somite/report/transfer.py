@@ -7,12 +7,16 @@ its continuous collision detection off (``noccd``, where it misfires against the
 per-run ratios go into ``transfer.csv`` at the top of the campaign folder (so that a pack
 carries them), one row per run and engine::
 
-    task,engine,generation,somite_vx,vsr_vx,ratio
-    rq1/biped-s0,stock,3000,4.1,3.2,0.78
+    task,engine,generation,somite_vx,vsr_vx,ratio,somite_own_vx,overall_ratio
+    rq1/biped-s0,stock,3000,3.1,2.9,0.94,4.1,0.71
 
-``generation`` and the two velocities may be empty; ``ratio`` is vsr_vx / somite_vx. The
-report shows the file's rows beside the runs and the median ratio per experiment, shape and
-engine; without the file it says how to make it.
+The driver reads the authors' code's sensors, so ``somite_vx`` is somite on those same sensors
+and ``ratio`` = vsr_vx / somite_vx compares the physics alone; ``somite_own_vx`` is somite on
+the run's own sensors (its preset's) and ``overall_ratio`` = vsr_vx / somite_own_vx what the
+run keeps of its speed in the paper's simulator. ``generation``, the velocities and the last
+two columns may be empty (a file written before they existed). The report shows the file's
+rows beside the runs and the median ratios per experiment, shape and engine; without the file
+it says how to make it.
 """
 
 from __future__ import annotations
@@ -28,7 +32,8 @@ from .._io import read_text
 from ..errors import bad
 
 TRANSFER_FILE = "transfer.csv"
-COLUMNS = ("task", "engine", "generation", "somite_vx", "vsr_vx", "ratio")
+COLUMNS = ("task", "engine", "generation", "somite_vx", "vsr_vx", "ratio", "somite_own_vx",
+           "overall_ratio")
 ENGINES = ("stock", "noccd")
 
 
@@ -63,19 +68,32 @@ def read_transfer(root: Path, tasks: dict[str, tuple[str, str]]) -> dict:
                      "generation": _number(row.get("generation") or "", where, "generation"),
                      "somite_vx": _number(row.get("somite_vx") or "", where, "somite_vx"),
                      "vsr_vx": _number(row.get("vsr_vx") or "", where, "vsr_vx"),
-                     "ratio": _number(row["ratio"], where, "ratio")})
-    groups: dict[tuple, list[float]] = {}
+                     "ratio": _number(row["ratio"], where, "ratio"),
+                     **{name: _number(row.get(name) or "", where, name)
+                        for name in ("somite_own_vx", "overall_ratio")}})
+    groups: dict[tuple, list[dict]] = {}
     for row in rows:
         if row["known"]:
             key = (row["experiment"], row["shape"], row["engine"])
-            groups.setdefault(key, []).append(row["ratio"])
+            groups.setdefault(key, []).append(row)
     summary = []
-    for (experiment, shape, engine), ratios in groups.items():
-        finite = [r for r in ratios if r is not None and math.isfinite(r)]
+    for (experiment, shape, engine), members in groups.items():
+        ratios = [m["ratio"] for m in members]
+        finite = _finite(ratios)
         summary.append({"experiment": experiment, "shape": shape, "engine": engine,
                         "runs": len(ratios), "not_finite": len(ratios) - len(finite),
-                        "median_ratio": float(np.median(finite)) if finite else None})
+                        "median_ratio": _median(finite),
+                        "median_overall_ratio": _median(_finite(
+                            m["overall_ratio"] for m in members))})
     return {"present": True, "file": TRANSFER_FILE, "rows": rows, "summary": summary}
+
+
+def _finite(values) -> list[float]:
+    return [v for v in values if v is not None and math.isfinite(v)]
+
+
+def _median(values: list[float]) -> float | None:
+    return float(np.median(values)) if values else None
 
 
 __all__ = ["COLUMNS", "ENGINES", "TRANSFER_FILE", "read_transfer"]

@@ -28,13 +28,27 @@ sensors is a second number, measured in somite alone. It prints, as JSON:
   ``preset_mismatch`` when its own sensors are not the driver's;
 - ``shapes``: per shape, the median of the runs' median ratios, of both kinds.
 
+``--sensors own`` drives each run on its own sensors instead, through the variant of the
+driver in ``benchmarks/reference/closed-loop/variant-paper-sensors/`` (built into the build's
+``classes-main-sensors/``; its README says how): ``SENSORS=paper`` for a ``paper`` run (world
+frames, no windows, the paper's lidar angles), ``SENSORS=code`` for an ``original-code`` run
+(the shared driver's sensors); a run whose sensor settings are neither preset's exactly is
+refused. Then somite runs each best on the run's own preset only: ``somite_vx`` =
+``somite_own_vx``, ``ratio`` = ``overall_ratio``, the physics on the sensors the run was
+evolved on, and ``preset_mismatch`` is false. Only the noise stream still differs (the driver
+draws ``java.util.Random(0)``, a ``paper`` run its own): with noise sigma 0 the two read the same
+numbers. Each run's entry names the driver's ``SENSORS`` (``driver_sensors``), the ``driver``
+entry the option (``sensors``: ``original-code`` for ``code``, else ``own``), the ``SENSORS``
+used (``sensors_read``) and the driver's folder (``main``). ``--campaign`` takes only the
+code's sensors (the report's transfer section reads them as such).
+
 ``episode_mismatch`` flags a run evolved on episodes other than 30 s from 5 s. Bodies other than
 the worm and the biped with the paper's sensors are refused: the driver cannot build them.
 
     python benchmarks/transfer.py RUN [RUN ...] [--every 50] [--from 50]
                                   [--terrains flat,hilly-1-10-10000,...|validation]
                                   [--vsr PATH] [--dyn4j classes-dyn4j] [--export PATH]
-                                  [--threads 2] [--seed 0]
+                                  [--threads 2] [--seed 0] [--sensors code|own]
 
 ``--vsr`` (default: env ``VSR``) is a build of the driver (``build.sh``: classes-main/CL.class
 beside classes-hmsr/, classes-dyn4j/ and lib/); ``--dyn4j`` names the folder of that build that
@@ -97,10 +111,22 @@ DRIVER_COLUMNS = ("sim", "name", "shape", "terrain", "sigma", "hidden", "vx", "x
 """The header CL.java writes in ``genomes`` mode."""
 DYN4J = "classes-dyn4j"
 """The build's folder of dyn4j's classes (``--dyn4j``: a variant's folder beside it)."""
+SENSOR_OPTIONS = ("code", "own")
+"""``--sensors``: the driver on the code's sensors for every run, or on each run's own."""
+MAIN = {"code": "classes-main", "own": "classes-main-sensors"}
+"""The build's folder of the driver's classes per ``--sensors``: the shared CL.java, or the
+variant of ``benchmarks/reference/closed-loop/variant-paper-sensors/`` (``SENSORS=code`` is the
+shared driver's behaviour, ``SENSORS=paper`` somite's ``paper`` sensors)."""
+DRIVER_SENSORS = {"original-code": "code", "paper": "paper"}
+"""somite preset -> the variant driver's ``SENSORS`` that reads that preset's sensors."""
+SENSOR_FIELDS = ("lidar_range", "lidar_angles", "lidar_frame", "touch_window", "velocity_window",
+                 "velocity_frame", "velocity_max", "voxel_angle")
+"""The :class:`SimConfig` fields that decide the readings (the noise stream aside: the driver's
+is ``java.util.Random(0)`` whatever the preset, and cannot match somite's ``independent``)."""
 
 
-def classpath(dyn4j: str) -> tuple[str, ...]:
-    return ("classes-main", "classes-hmsr", dyn4j, "lib/*")
+def classpath(dyn4j: str, main: str = MAIN["code"]) -> tuple[str, ...]:
+    return (main, "classes-hmsr", dyn4j, "lib/*")
 
 
 @dataclass
@@ -212,15 +238,31 @@ def sim_config(config: RunConfig) -> SimConfig:
     return preset(config.preset, duration=DRIVER_DURATION, transient=DRIVER_TRANSIENT)
 
 
-def driver_config(config: RunConfig) -> SimConfig:
-    """What the driver runs, in somite: the code's sensors (:data:`DRIVER_PRESET`) and the
-    run's hidden activation, on the driver's episode; the two presets share their physics."""
+def driver_config(config: RunConfig, sensors: str = "code") -> SimConfig:
+    """What the driver runs, in somite, on the driver's episode with the run's hidden
+    activation: with ``sensors="code"`` the code's sensors (:data:`DRIVER_PRESET`; the two
+    presets share their physics), with ``"own"`` the run's own settings (the variant driver
+    reads either preset's sensors: :func:`driver_sensors`)."""
     own = sim_config(config)
     if own.hidden_activation not in DRIVER_HIDDEN:
         raise bad("run", config.preset, f"hidden activation {own.hidden_activation!r}: the "
                   f"driver runs only {list(DRIVER_HIDDEN)}")
+    if sensors == "own":
+        return own
     return preset(DRIVER_PRESET, hidden_activation=own.hidden_activation,
                   duration=DRIVER_DURATION, transient=DRIVER_TRANSIENT)
+
+
+def driver_sensors(config: SimConfig, run: str = "") -> str:
+    """The variant driver's ``SENSORS`` (``code`` or ``paper``) whose readings are those of
+    ``config``: its :data:`SENSOR_FIELDS` must be exactly one preset's, else a one-line error."""
+    mine = {name: getattr(config, name) for name in SENSOR_FIELDS}
+    for name, value in DRIVER_SENSORS.items():
+        if mine == {f: getattr(preset(name), f) for f in SENSOR_FIELDS}:
+            return value
+    raise bad("run", run or config.to_dict(), "--sensors own: its sensor settings are neither "
+              "the paper preset's nor the original-code preset's exactly (the driver reads only "
+              "those two)")
 
 
 def sigma_text(sigma: float) -> str:
@@ -258,9 +300,9 @@ def median(values) -> float:
     return float(np.median(finite)) if finite else math.nan
 
 
-def find_java(vsr: str | None, dyn4j: str = DYN4J) -> tuple[str, str]:
+def find_java(vsr: str | None, dyn4j: str = DYN4J, sensors: str = "code") -> tuple[str, str]:
     """(java executable, class path) of a driver build with dyn4j's classes from the folder
-    ``dyn4j`` of it, or a one-line error."""
+    ``dyn4j`` of it and the driver's from :data:`MAIN` of ``sensors``, or a one-line error."""
     if not vsr:
         raise bad("vsr", vsr, "give --vsr PATH or set VSR to a build of the 2D-VSR-Sim driver")
     folder = Path(vsr)
@@ -273,10 +315,15 @@ def find_java(vsr: str | None, dyn4j: str = DYN4J) -> tuple[str, str]:
     if not dyn4j or Path(dyn4j).name != dyn4j or not (folder / dyn4j / "org").is_dir():
         raise bad("dyn4j", dyn4j, f"not a folder of dyn4j's classes in {vsr} (a variant is "
                   "built beside classes-dyn4j: benchmarks/reference/closed-loop/README.md)")
+    main = MAIN[sensors]
+    if not (folder / main / "CL.class").exists():
+        raise bad("sensors", sensors, f"needs the paper-sensors driver in {folder / main} (no "
+                  "CL.class; benchmarks/reference/closed-loop/README.md, variant-paper-sensors, "
+                  "says how to build it)")
     java = shutil.which("java")
     if java is None:
         raise bad("java", "java", "not found on PATH (a Java 11+ runtime runs the driver)")
-    return java, os.pathsep.join(str(folder.resolve() / p) for p in classpath(dyn4j))
+    return java, os.pathsep.join(str(folder.resolve() / p) for p in classpath(dyn4j, main))
 
 
 def check_export(path: str) -> Path:
@@ -292,10 +339,11 @@ def _last_line(text: str) -> str:
 
 
 def run_driver(genomes: dict[str, dict], terrains: list[str], sigmas: list[float], vsr: str,
-               export: Path, threads: int, java: tuple[str, str], hidden: str) -> dict:
+               export: Path, threads: int, java: tuple[str, str], hidden: str,
+               sensors: str | None = None) -> dict:
     """Every genome (name -> genome JSON) x terrain x sigma in 2D-VSR-Sim, its hidden nodes
-    ``hidden``: v_x by (name, terrain, sigma). Exports the genomes, runs ``CL genomes`` in a
-    temporary folder."""
+    ``hidden`` and (the variant driver) its ``SENSORS`` ``sensors``: v_x by (name, terrain,
+    sigma). Exports the genomes, runs ``CL genomes`` in a temporary folder."""
     executable, classpath = java
     with tempfile.TemporaryDirectory(prefix="somite-transfer-") as tmp:
         source = Path(tmp) / "genomes.jsonl"
@@ -307,10 +355,14 @@ def run_driver(genomes: dict[str, dict], terrains: list[str], sigmas: list[float
             raise bad("export", str(export), f"failed: {_last_line(done.stderr)}")
         (Path(tmp) / "genomes.txt").write_text(done.stdout)
         env = {**os.environ, "THREADS": str(threads), "HIDDEN": hidden}
+        env.pop("SENSORS", None)
+        if sensors is not None:
+            env["SENSORS"] = sensors
         command = [executable, "-cp", classpath, "CL", "genomes", "genomes.txt", ",".join(terrains),
                    ",".join(sigma_text(s) for s in sigmas), "out.csv"]
         sys.stderr.write(f"transfer: 2D-VSR-Sim: {len(genomes) * len(terrains) * len(sigmas)} "
-                         f"episodes of 30 s, {hidden} hidden nodes, on {threads} threads\n")
+                         f"episodes of 30 s, {hidden} hidden nodes, "
+                         f"{sensors or 'code'} sensors, on {threads} threads\n")
         done = subprocess.run(command, capture_output=True, text=True, cwd=tmp, env=env)
         out = Path(tmp) / "out.csv"
         if done.returncode != 0 or not out.is_file():
@@ -324,18 +376,19 @@ def _number(value: float) -> float | None:
 
 
 def compare(runs: list[Run], terrains: list[Terrain], vsr_cells: dict, seed: int,
-            start: int, names: dict[str, str]) -> dict:
+            start: int, names: dict[str, str], sensors: str = "code") -> dict:
     """The JSON report: somite and 2D-VSR-Sim v_x of every run's sampled generations."""
     report_runs = []
     for run in runs:
-        config, own = driver_config(run.config), sim_config(run.config)
+        config, own = driver_config(run.config, sensors), sim_config(run.config)
+        read = driver_sensors(config, run.path) if sensors == "own" else "code"
         sigma = float(config.noise_sigma)
         genomes = [e["genome"] for e in run.entries]
         somite_vx = evaluate(genomes, terrains, config, seed=seed)
         own_vx = somite_vx if own == config else evaluate(genomes, terrains, own, seed=seed)
         generations = []
         for entry, row, own_row in zip(run.entries, somite_vx, own_vx):
-            name = names[_key(entry["data"], config.hidden_activation)]
+            name = names[_key(entry["data"], config.hidden_activation, read)]
             vsr_row = np.array([vsr_cells.get((name, t.name, sigma), math.nan) for t in terrains])
             s, o, v = (float(mean_velocity(r)) for r in (row, own_row, vsr_row))
             generations.append({
@@ -360,6 +413,7 @@ def compare(runs: list[Run], terrains: list[Terrain], vsr_cells: dict, seed: int
             "preset": run.config.preset,
             "preset_mismatch": own != config,
             "hidden": config.hidden_activation,
+            "driver_sensors": read,
             "episode": episode,
             "episode_mismatch": episode != {"duration": DRIVER_DURATION,
                                             "transient": DRIVER_TRANSIENT},
@@ -382,16 +436,19 @@ def compare(runs: list[Run], terrains: list[Terrain], vsr_cells: dict, seed: int
     return {"runs": report_runs, "shapes": shapes}
 
 
-def _key(genome_data: dict, hidden: str) -> str:
-    """A genome as the driver runs it: its JSON and the hidden activation."""
-    return json.dumps([genome_data, hidden], sort_keys=True)
+def _key(genome_data: dict, hidden: str, sensors: str = "code") -> str:
+    """A genome as the driver runs it: its JSON, the hidden activation and the sensors."""
+    key = [genome_data, hidden] if sensors == "code" else [genome_data, hidden, sensors]
+    return json.dumps(key, sort_keys=True)
 
 
 def transfer(paths: list[str], every: int = 50, start: int = 50,
              terrains: list[Terrain] | None = None, vsr: str | None = None,
              export: str | Path = DEFAULT_EXPORT, threads: int = 2, seed: int = 0,
-             dyn4j: str = DYN4J) -> dict:
+             dyn4j: str = DYN4J, sensors: str = "code") -> dict:
     """The whole check (see the module docstring); every bad input is a one-line error."""
+    if sensors not in SENSOR_OPTIONS:
+        raise bad("sensors", sensors, f"use one of {list(SENSOR_OPTIONS)}")
     if isinstance(start, bool) or not isinstance(start, int) or start < 0:
         raise bad("from", start, "must be a whole number, 0 or more")
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
@@ -400,31 +457,35 @@ def transfer(paths: list[str], every: int = 50, start: int = 50,
     if not paths:
         raise bad("run", paths, "give at least one run directory")
     runs = [load_run(path, every) for path in paths]
-    java = find_java(vsr, dyn4j)
+    reads = {run.path: driver_sensors(driver_config(run.config, sensors), run.path)
+             if sensors == "own" else "code" for run in runs}
+    java = find_java(vsr, dyn4j, sensors)
     script = check_export(str(export))
     names: dict[str, str] = {}  # genome JSON -> driver name; a genome kept for many generations
-    by_hidden: dict[str, dict[str, dict]] = {}  # runs once, with its run's hidden nodes
-    for run in runs:
-        hidden = driver_config(run.config).hidden_activation
+    groups: dict[tuple[str, str], dict[str, dict]] = {}  # runs once, with its run's hidden
+    for run in runs:  # nodes and sensors
+        hidden, read = driver_config(run.config, sensors).hidden_activation, reads[run.path]
         for entry in run.entries:
-            key = _key(entry["data"], hidden)
+            key = _key(entry["data"], hidden, read)
             if key not in names:
                 names[key] = f"genome-{len(names):05d}"
-                by_hidden.setdefault(hidden, {})[names[key]] = entry["data"]
-    sigmas = sorted({float(driver_config(run.config).noise_sigma) for run in runs})
+                groups.setdefault((hidden, read), {})[names[key]] = entry["data"]
+    sigmas = sorted({float(driver_config(run.config, sensors).noise_sigma) for run in runs})
     cells = {}
-    for hidden, genomes in by_hidden.items():
+    for (hidden, read), genomes in groups.items():
         cells.update(run_driver(genomes, [t.name for t in terrains], sigmas, str(vsr), script,
-                                threads, java, hidden))
-    report = compare(runs, terrains, cells, seed, start, names)
+                                threads, java, hidden, None if sensors == "code" else read))
+    report = compare(runs, terrains, cells, seed, start, names, sensors)
     return {
         "terrains": [t.name for t in terrains],
         "every": every,
         "from": start,
         "seed": seed,
         "episode": {"duration": DRIVER_DURATION, "transient": DRIVER_TRANSIENT},
-        "driver": {"vsr": str(vsr), "dyn4j": dyn4j, "sensors": DRIVER_PRESET,
-                   "hidden": sorted(by_hidden),
+        "driver": {"vsr": str(vsr), "dyn4j": dyn4j, "main": MAIN[sensors],
+                   "sensors": DRIVER_PRESET if sensors == "code" else "own",
+                   "sensors_read": sorted({read for _, read in groups}),
+                   "hidden": sorted({hidden for hidden, _ in groups}),
                    "threads": threads, "episodes": len(cells), "genomes": len(names)},
         **report,
     }
@@ -499,6 +560,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--export", default=str(DEFAULT_EXPORT),
                         help="export_genomes.py (default: ../shared/tools/closed-loop-2dvsrsim/ "
                         "beside the repository)")
+    parser.add_argument("--sensors", choices=SENSOR_OPTIONS, default="code",
+                        help="code (default): the driver reads the authors' code's sensors for "
+                        "every run; own: each run's own preset's (the variant driver in "
+                        f"{MAIN['own']}/ of the build)")
     parser.add_argument("--threads", type=int, default=2, help="the driver's THREADS (default 2)")
     parser.add_argument("--seed", type=int, default=0,
                         help="somite's noise seed (paper preset; original-code ignores it)")
@@ -508,11 +573,15 @@ def main(argv: list[str] | None = None) -> int:
                         "of the campaign in DIR")
     args = parser.parse_args(argv)
     try:
+        if args.campaign is not None and args.sensors != "code":
+            raise bad("campaign", args.campaign, "--sensors own: the campaign's transfer.csv "
+                      "holds the code-sensors check (somite report reads it as such)")
         if args.campaign is not None:  # before the driver runs: its minutes are not lost
             campaign_rows({"runs": [{"run": r, "generations": [{}]} for r in args.runs]},
                           Path(args.campaign), "")
         out = transfer(args.runs, args.every, args.start, parse_terrains(args.terrains),
-                       args.vsr, args.export, args.threads, args.seed, args.dyn4j)
+                       args.vsr, args.export, args.threads, args.seed, args.dyn4j,
+                       args.sensors)
         if args.campaign is not None:
             write_campaign_csv(Path(args.campaign), campaign_rows(
                 out, Path(args.campaign), engine_of(args.dyn4j)))

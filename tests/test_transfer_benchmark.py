@@ -154,6 +154,37 @@ def test_compare_ratios_medians_and_the_preset_mismatch(runs):
     assert worm["ratios_left_out"] == len(lost) and worm["ratios_counted"] == 2 - len(lost)
 
 
+def test_own_sensors_drive_each_run_on_its_preset(runs):
+    """``--sensors own``: the driver reads each run's own sensors, so somite runs each best
+    once, on its own preset, and the ratio is the overall ratio."""
+    loaded = [transfer.load_run(str(runs / name), 2) for name in ("worm", "biped")]
+    for run, read in zip(loaded, ("code", "paper")):
+        own = transfer.driver_config(run.config, "own")
+        assert own == transfer.sim_config(run.config)
+        assert transfer.driver_sensors(own, run.path) == read
+    assert transfer.driver_sensors(transfer.driver_config(loaded[1].config)) == "code"
+    odd = dataclasses.replace(transfer.sim_config(loaded[1].config), velocity_window=3)
+    with pytest.raises(SomiteError, match="neither the paper preset's nor the original-code"):
+        transfer.driver_sensors(odd, "somewhere")
+    terrains = [parse_terrain("flat")]
+    names, cells = {}, {}
+    for run, read in zip(loaded, ("code", "paper")):  # a fake 2D-VSR-Sim: half of somite's
+        config = transfer.driver_config(run.config, "own")
+        velocities = evaluate([e["genome"] for e in run.entries], terrains, config)
+        for entry, row in zip(run.entries, velocities):
+            key = transfer._key(entry["data"], config.hidden_activation, read)
+            name = names.setdefault(key, f"genome-{len(names):05d}")
+            cells[(name, "flat", 0.01)] = row[0] / 2
+    out = transfer.compare(loaded, terrains, cells, seed=0, start=2, names=names, sensors="own")
+    for run, read in zip(out["runs"], ("code", "paper")):
+        assert run["driver_sensors"] == read and not run["preset_mismatch"]
+        assert run["median_ratio"] == run["median_overall_ratio"] == pytest.approx(0.5)
+        for g in run["generations"]:
+            assert g["somite_vx"] == g["somite_own_vx"] and g["ratio"] == g["overall_ratio"]
+            assert g["vsr_vx"] == pytest.approx(g["somite_vx"] / 2)
+    assert out["shapes"]["biped"]["runs_preset_mismatch"] == 0
+
+
 def error_line(capsys, *argv: str) -> str:
     assert transfer.main(list(argv)) == 2
     err = capsys.readouterr().err
@@ -206,6 +237,29 @@ def test_missing_driver_build(runs, tmp_path, capsys, monkeypatch):
     assert message.startswith("java='java': not found")
 
 
+def test_own_sensors_errors(runs, tmp_path, capsys, monkeypatch):
+    """``--sensors own`` needs the variant driver, a run of either preset's sensors and no
+    ``--campaign``; each is a one-line error."""
+    run, vsr = str(runs / "biped"), ("--vsr", str(tmp_path))
+    for part in ("classes-main/CL.class", "classes-hmsr/it", "classes-dyn4j/org", "lib"):
+        (tmp_path / part).mkdir(parents=True)
+    message = error_line(capsys, run, *vsr, "--sensors", "own")
+    assert message.startswith("sensors='own'") and "classes-main-sensors" in message
+    with pytest.raises(SystemExit):  # argparse's one line
+        transfer.main([run, *vsr, "--sensors", "paper"])
+    assert "--sensors" in capsys.readouterr().err
+    message = error_line(capsys, run, *vsr, "--sensors", "own", "--campaign", str(runs))
+    assert message.startswith("campaign=") and "--sensors own" in message
+    real = transfer.sim_config  # a run's sensors neither preset's (no run option makes one yet)
+    monkeypatch.setattr(transfer, "sim_config",
+                        lambda config: dataclasses.replace(real(config), touch_window=2))
+    message = error_line(capsys, run, *vsr, "--sensors", "own")
+    assert message.startswith(f"run='{run}'") and "neither the paper preset's" in message
+    monkeypatch.undo()
+    with pytest.raises(SomiteError, match="sensors='both'"):
+        transfer.transfer([run], sensors="both")
+
+
 def test_other_bad_options(runs, tmp_path, capsys):
     run, vsr = str(runs / "worm"), ("--vsr", str(tmp_path))
     assert error_line(capsys, run, *vsr, "--terrains", "hilly-x").startswith("terrain=")
@@ -244,6 +298,31 @@ def test_end_to_end(runs):
             assert math.isfinite(g["vsr_vx"])
             assert g["ratio"] == pytest.approx(g["vsr_vx"] / g["somite_vx"])
         assert out["shapes"][name]["runs"] == 1
+
+
+@pytest.mark.skipif(not VSR or not (Path(VSR) / "classes-main-sensors/CL.class").exists(),
+                    reason="needs the paper-sensors driver in env VSR's classes-main-sensors")
+@pytest.mark.skipif(not transfer.DEFAULT_EXPORT.exists(), reason="no export_genomes.py beside")
+def test_end_to_end_on_own_sensors(runs):
+    """``--sensors own``: the variant driver reads each run's own sensors; somite runs each
+    best on its own preset only."""
+    done = subprocess.run([sys.executable, str(ROOT / "benchmarks/transfer.py"), str(runs / "worm"),
+                           str(runs / "biped"), "--every", "4", "--from", "0", "--terrains",
+                           "flat", "--sensors", "own"], capture_output=True, text=True, cwd=ROOT,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "code sensors" in done.stderr and "paper sensors" in done.stderr
+    out = json.loads(done.stdout)
+    assert out["driver"]["sensors"] == "own" and out["driver"]["main"] == "classes-main-sensors"
+    assert out["driver"]["sensors_read"] == ["code", "paper"]
+    for run, name, read in zip(out["runs"], ("worm", "biped"), ("code", "paper")):
+        assert run["driver_sensors"] == read and not run["preset_mismatch"]
+        loaded = transfer.load_run(str(runs / name), 4)
+        own = evaluate([e["genome"] for e in loaded.entries], [parse_terrain("flat")],
+                       transfer.sim_config(loaded.config))
+        for g, o in zip(run["generations"], own[:, 0]):
+            assert g["somite_vx"] == g["somite_own_vx"] == o and math.isfinite(g["vsr_vx"])
+            assert g["ratio"] == g["overall_ratio"] == pytest.approx(g["vsr_vx"] / o)
 
 
 def test_campaign_rows_feed_the_reports_transfer_section(tmp_path, capsys):

@@ -39,8 +39,7 @@ evolved on, and ``preset_mismatch`` is false. Only the noise stream still differ
 draws ``java.util.Random(0)``, a ``paper`` run its own): with noise sigma 0 the two read the same
 numbers. Each run's entry names the driver's ``SENSORS`` (``driver_sensors``), the ``driver``
 entry the option (``sensors``: ``original-code`` for ``code``, else ``own``), the ``SENSORS``
-used (``sensors_read``) and the driver's folder (``main``). ``--campaign`` takes only the
-code's sensors (the report's transfer section reads them as such).
+used (``sensors_read``) and the driver's folder (``main``).
 
 ``episode_mismatch`` flags a run evolved on episodes other than 30 s from 5 s. Bodies other than
 the worm and the biped with the paper's sensors are refused: the driver cannot build them.
@@ -60,11 +59,11 @@ holds dyn4j's classes, so that a variant of the engine built beside them runs in
 ``../shared/tools/closed-loop-2dvsrsim/export_genomes.py`` from the repository root).
 ``--campaign DIR`` (the runs being tasks of the campaign in DIR) also writes each run's last
 sampled generation into ``DIR/transfer.csv``, the file the transfer section of ``somite report``
-reads (``task,engine,generation,somite_vx,vsr_vx,ratio,somite_own_vx,overall_ratio``; engine
-``noccd`` when ``--dyn4j``
-names the build without continuous collision detection, else ``stock``): rows of other runs or
-of the other engine are kept, so running it once per engine fills the table. A ratio
-of speeds near zero is noise: look at the medians, and at ``somite_vx`` beside it.
+reads (``task,engine,sensors,generation,somite_vx,vsr_vx,ratio,somite_own_vx,overall_ratio``;
+engine ``noccd`` when ``--dyn4j`` names the build without continuous collision detection, else
+``stock``; sensors ``code`` or ``own``, as ``--sensors``): rows of other runs, engines or
+sensors are kept, so running it once per engine and sensors fills the table. A ratio of speeds
+near zero is noise: look at the medians, and at ``somite_vx`` beside it.
 """
 
 from __future__ import annotations
@@ -497,7 +496,7 @@ class _Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
-CAMPAIGN_COLUMNS = ("task", "engine", "generation", "somite_vx", "vsr_vx", "ratio",
+CAMPAIGN_COLUMNS = ("task", "engine", "sensors", "generation", "somite_vx", "vsr_vx", "ratio",
                     "somite_own_vx", "overall_ratio")
 """The columns of a campaign's ``transfer.csv`` (somite.report.transfer reads them)."""
 
@@ -507,9 +506,10 @@ def engine_of(dyn4j: str) -> str:
     return "noccd" if "noccd" in Path(dyn4j).name else "stock"
 
 
-def campaign_rows(out: dict, campaign: Path, engine: str) -> list[dict]:
+def campaign_rows(out: dict, campaign: Path, engine: str, sensors: str = "code") -> list[dict]:
     """A row of ``transfer.csv`` per run of ``out`` (:func:`transfer`'s result): its task (the
-    run's folder inside ``campaign``) and its last sampled generation's velocities and ratio."""
+    run's folder inside ``campaign``), the engine and ``--sensors``, and its last sampled
+    generation's velocities and ratios."""
     rows = []
     root = campaign.resolve()
     for run in out["runs"]:
@@ -518,22 +518,25 @@ def campaign_rows(out: dict, campaign: Path, engine: str) -> list[dict]:
             raise bad("run", run["run"], f"is not a task folder of the campaign {campaign}")
         last = run["generations"][-1]
         rows.append({"task": folder.relative_to(root).as_posix(), "engine": engine,
-                     **{k: last.get(k) for k in CAMPAIGN_COLUMNS[2:]}})
+                     "sensors": sensors, **{k: last.get(k) for k in CAMPAIGN_COLUMNS[3:]}})
     return rows
 
 
 def write_campaign_csv(campaign: Path, rows: list[dict]) -> Path:
-    """Merge ``rows`` into ``campaign/transfer.csv`` (a row of the same task and engine
-    replaced, the others kept, sorted), written atomically."""
+    """Merge ``rows`` into ``campaign/transfer.csv`` (a row of the same task, engine and
+    sensors replaced, the others kept, sorted), written atomically. A row of a file written
+    before the sensors column is of the code's sensors."""
     from somite._io import write_atomic
 
     path = campaign / "transfer.csv"
     kept = {}
     if path.is_file():
         for row in csv.DictReader(io.StringIO(read_text(path, "transfer"))):
-            kept[(row["task"], row["engine"])] = row
+            row["sensors"] = row.get("sensors") or "code"
+            kept[(row["task"], row["engine"], row["sensors"])] = row
     for row in rows:
-        kept[(row["task"], row["engine"])] = {k: "" if v is None else v for k, v in row.items()}
+        kept[(row["task"], row["engine"], row["sensors"])] = {
+            k: "" if v is None else v for k, v in row.items()}
     text = io.StringIO()
     writer = csv.DictWriter(text, CAMPAIGN_COLUMNS, lineterminator="\n", extrasaction="ignore")
     writer.writeheader()
@@ -573,9 +576,6 @@ def main(argv: list[str] | None = None) -> int:
                         "of the campaign in DIR")
     args = parser.parse_args(argv)
     try:
-        if args.campaign is not None and args.sensors != "code":
-            raise bad("campaign", args.campaign, "--sensors own: the campaign's transfer.csv "
-                      "holds the code-sensors check (somite report reads it as such)")
         if args.campaign is not None:  # before the driver runs: its minutes are not lost
             campaign_rows({"runs": [{"run": r, "generations": [{}]} for r in args.runs]},
                           Path(args.campaign), "")
@@ -584,7 +584,7 @@ def main(argv: list[str] | None = None) -> int:
                        args.sensors)
         if args.campaign is not None:
             write_campaign_csv(Path(args.campaign), campaign_rows(
-                out, Path(args.campaign), engine_of(args.dyn4j)))
+                out, Path(args.campaign), engine_of(args.dyn4j), args.sensors))
     except SomiteError as error:
         sys.stderr.write(f"{parser.prog}: error: {error}\n")
         return 2

@@ -238,8 +238,8 @@ def test_missing_driver_build(runs, tmp_path, capsys, monkeypatch):
 
 
 def test_own_sensors_errors(runs, tmp_path, capsys, monkeypatch):
-    """``--sensors own`` needs the variant driver, a run of either preset's sensors and no
-    ``--campaign``; each is a one-line error."""
+    """``--sensors own`` needs the variant driver and a run of either preset's sensors; each is
+    a one-line error."""
     run, vsr = str(runs / "biped"), ("--vsr", str(tmp_path))
     for part in ("classes-main/CL.class", "classes-hmsr/it", "classes-dyn4j/org", "lib"):
         (tmp_path / part).mkdir(parents=True)
@@ -248,8 +248,8 @@ def test_own_sensors_errors(runs, tmp_path, capsys, monkeypatch):
     with pytest.raises(SystemExit):  # argparse's one line
         transfer.main([run, *vsr, "--sensors", "paper"])
     assert "--sensors" in capsys.readouterr().err
-    message = error_line(capsys, run, *vsr, "--sensors", "own", "--campaign", str(runs))
-    assert message.startswith("campaign=") and "--sensors own" in message
+    message = error_line(capsys, run, *vsr, "--sensors", "own", "--campaign", str(tmp_path))
+    assert message.startswith("run=") and "not a task folder" in message  # before the driver
     real = transfer.sim_config  # a run's sensors neither preset's (no run option makes one yet)
     monkeypatch.setattr(transfer, "sim_config",
                         lambda config: dataclasses.replace(real(config), touch_window=2))
@@ -350,31 +350,47 @@ def test_campaign_rows_feed_the_reports_transfer_section(tmp_path, capsys):
                                                                  "noccd"))
     transfer.write_campaign_csv(campaign, transfer.campaign_rows(out([0.6, 0.8]), campaign,
                                                                  "stock"))  # replaces
+    transfer.write_campaign_csv(campaign, transfer.campaign_rows(out([0.95, 1.0]), campaign,
+                                                                 "stock", "own"))  # beside
     lines = (campaign / "transfer.csv").read_text().splitlines()
-    assert lines[0] == "task,engine,generation,somite_vx,vsr_vx,ratio,somite_own_vx,overall_ratio"
-    assert lines[1:] == ["rq1/worm-s0,noccd,3000,2.0,1.8,0.9,4.0,0.45",
-                         "rq1/worm-s0,stock,3000,2.0,1.2,0.6,4.0,0.3",
-                         "rq1/worm-s1,noccd,3000,2.0,,,4.0,",
-                         "rq1/worm-s1,stock,3000,2.0,1.6,0.8,4.0,0.4"]
+    assert lines[0] == ("task,engine,sensors,generation,somite_vx,vsr_vx,ratio,somite_own_vx,"
+                        "overall_ratio")
+    assert lines[1:] == ["rq1/worm-s0,noccd,code,3000,2.0,1.8,0.9,4.0,0.45",
+                         "rq1/worm-s0,stock,code,3000,2.0,1.2,0.6,4.0,0.3",
+                         "rq1/worm-s0,stock,own,3000,2.0,1.9,0.95,4.0,0.475",
+                         "rq1/worm-s1,noccd,code,3000,2.0,,,4.0,",
+                         "rq1/worm-s1,stock,code,3000,2.0,1.6,0.8,4.0,0.4",
+                         "rq1/worm-s1,stock,own,3000,2.0,2.0,1.0,4.0,0.5"]
     with pytest.raises(SomiteError, match="not a task folder"):
         transfer.campaign_rows({"runs": [{"run": str(tmp_path), "generations": [{}]}]},
                                campaign, "stock")
     tasks = {"rq1/worm-s0": ("rq1", "worm"), "rq1/worm-s1": ("rq1", "worm")}
     found = read_transfer(campaign, tasks)
-    summary = {s["engine"]: s for s in found["summary"]}
-    assert summary["stock"]["median_ratio"] == pytest.approx(0.7)
-    assert summary["stock"]["median_overall_ratio"] == pytest.approx(0.35)
-    assert (summary["noccd"]["median_ratio"], summary["noccd"]["not_finite"]) == (0.9, 1)
+    summary = {(s["engine"], s["sensors"]): s for s in found["summary"]}
+    assert summary["stock", "code"]["median_ratio"] == pytest.approx(0.7)
+    assert summary["stock", "code"]["median_overall_ratio"] == pytest.approx(0.35)
+    assert summary["stock", "own"]["median_ratio"] == pytest.approx(0.975)
+    assert (summary["noccd", "code"]["median_ratio"],
+            summary["noccd", "code"]["not_finite"]) == (0.9, 1)
     text = "\n".join(_transfer({"transfer": found}))
-    assert "| rq1 | worm | stock | 2 | 0.700 | 0.350 | 0 |" in text
-    assert "| rq1/worm-s0 | stock | 3000 | 4.000 | 2.000 | 1.200 | 0.600 | 0.300 |" in text
-    # a file written before the last two columns existed is read, those cells n/a
+    assert "| rq1 | worm | stock | code | 2 | 0.700 | 0.350 | 0 |" in text
+    assert ("| rq1/worm-s0 | stock | code | 3000 | 4.000 | 2.000 | 1.200 | 0.600 | 0.300 |"
+            in text)
+    # a file written before the sensors and the last two columns: the code's sensors, n/a
     (campaign / "transfer.csv").write_text("task,engine,generation,somite_vx,vsr_vx,ratio\n"
                                            "rq1/worm-s0,stock,3000,2.0,1.2,0.6\n")
     old = read_transfer(campaign, tasks)
     assert old["summary"][0]["median_overall_ratio"] is None
-    assert "| rq1/worm-s0 | stock | 3000 | n/a | 2.000 | 1.200 | 0.600 | n/a |" in "\n".join(
-        _transfer({"transfer": old}))
+    assert old["summary"][0]["sensors"] == "code"
+    assert ("| rq1/worm-s0 | stock | code | 3000 | n/a | 2.000 | 1.200 | 0.600 | n/a |"
+            in "\n".join(_transfer({"transfer": old})))
+    transfer.write_campaign_csv(campaign, transfer.campaign_rows(out([0.95, 1.0]), campaign,
+                                                                 "stock", "own"))
+    lines = (campaign / "transfer.csv").read_text().splitlines()  # the old row kept, as code
+    assert lines[1] == "rq1/worm-s0,stock,code,3000,2.0,1.2,0.6,,"
+    (campaign / "transfer.csv").write_text("task,engine,sensors,ratio\nrq1/worm-s0,stock,paper,1\n")
+    with pytest.raises(SomiteError, match="sensors='paper'"):
+        read_transfer(campaign, tasks)
     assert "Not measured" not in text
     missing = read_transfer(tmp_path, tasks)
     assert "Not measured yet" in "\n".join(_transfer({"transfer": missing}))

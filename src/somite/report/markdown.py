@@ -93,26 +93,30 @@ def _transfer(report: dict) -> list[str]:
              "(`benchmarks/transfer.py` and the Java driver of "
              "`shared/tools/closed-loop-2dvsrsim/`), with dyn4j as shipped (*stock*) and with "
              "its continuous collision detection off (*noccd*, where it misfires against the "
-             "terrain), on the same terrains. The driver reads the authors' code's sensors, so "
-             "somite re-runs each best on those sensors too: ratio = v_x in 2D-VSR-Sim / v_x in "
-             "somite on the same sensors, the physics alone; overall = v_x in 2D-VSR-Sim / v_x "
-             "in somite on the run's own sensors, what the robot keeps of its speed there.", ""]
+             "terrain), on the same terrains, the driver reading the authors' code's sensors "
+             "(*code*) or the run's own preset's (*own*, a variant of the driver). somite "
+             "re-runs each best on the sensors the driver read: ratio = v_x in 2D-VSR-Sim / v_x "
+             "in somite on the same sensors, the physics alone; overall = v_x in 2D-VSR-Sim / "
+             "v_x in somite on the run's own sensors, what the robot keeps of its speed there "
+             "(with *own*, the same number).", ""]
     if not data["present"]:
         return lines + [f"*Not measured yet: no `{data['file']}` in the campaign folder "
-                        "(columns task, engine, generation, somite_vx, vsr_vx, ratio, "
-                        "somite_own_vx, overall_ratio; one row per run and engine, from "
+                        "(columns task, engine, sensors, generation, somite_vx, vsr_vx, ratio, "
+                        "somite_own_vx, overall_ratio; one row per run, engine and sensors, from "
                         "`benchmarks/transfer.py`).*", ""]
-    rows = [[s["experiment"], s["shape"], s["engine"], s["runs"], number(s["median_ratio"]),
-             number(s.get("median_overall_ratio")), s["not_finite"]] for s in data["summary"]]
-    lines += table(["experiment", "shape", "engine", "runs", "median ratio (physics)",
-                    "median overall ratio", "ratio not finite"], rows)
+    rows = [[s["experiment"], s["shape"], s["engine"], s.get("sensors", "code"), s["runs"],
+             number(s["median_ratio"]), number(s.get("median_overall_ratio")), s["not_finite"]]
+            for s in data["summary"]]
+    lines += table(["experiment", "shape", "engine", "sensors", "runs",
+                    "median ratio (physics)", "median overall ratio", "ratio not finite"], rows)
     rows = [[r["task"] + ("" if r["known"] else " (not a finished run of this campaign)"),
-             r["engine"], number(r["generation"], 0) if r["generation"] is not None else "n/a",
+             r["engine"], r.get("sensors", "code"),
+             number(r["generation"], 0) if r["generation"] is not None else "n/a",
              number(r.get("somite_own_vx")), number(r["somite_vx"]), number(r["vsr_vx"]),
              number(r["ratio"]), number(r.get("overall_ratio"))] for r in data["rows"]]
-    return lines + table(["run", "engine", "generation", "v_x in somite, own sensors",
-                          "v_x in somite, the code's sensors", "v_x in 2D-VSR-Sim",
-                          "ratio (physics)", "overall ratio"], rows)
+    return lines + table(["run", "engine", "sensors", "generation",
+                          "v_x in somite, own sensors", "v_x in somite, the sensors read",
+                          "v_x in 2D-VSR-Sim", "ratio (physics)", "overall ratio"], rows)
 
 
 def _timelapse(report: dict) -> list[str]:

@@ -7,16 +7,19 @@ its continuous collision detection off (``noccd``, where it misfires against the
 per-run ratios go into ``transfer.csv`` at the top of the campaign folder (so that a pack
 carries them), one row per run and engine::
 
-    task,engine,generation,somite_vx,vsr_vx,ratio,somite_own_vx,overall_ratio
-    rq1/biped-s0,stock,3000,3.1,2.9,0.94,4.1,0.71
+    task,engine,sensors,generation,somite_vx,vsr_vx,ratio,somite_own_vx,overall_ratio
+    rq1/biped-s0,stock,code,3000,3.1,2.9,0.94,4.1,0.71
+    rq1/biped-s0,stock,own,3000,4.1,3.9,0.95,4.1,0.95
 
-The driver reads the authors' code's sensors, so ``somite_vx`` is somite on those same sensors
-and ``ratio`` = vsr_vx / somite_vx compares the physics alone; ``somite_own_vx`` is somite on
-the run's own sensors (its preset's) and ``overall_ratio`` = vsr_vx / somite_own_vx what the
-run keeps of its speed in the paper's simulator. ``generation``, the velocities and the last
-two columns may be empty (a file written before they existed). The report shows the file's
-rows beside the runs and the median ratios per experiment, shape and engine; without the file
-it says how to make it.
+``sensors`` is what the driver read: ``code``, the authors' code's sensors for every run, or
+``own``, each run's own preset's (a variant of the driver). ``somite_vx`` is somite on the
+sensors the driver read, so ``ratio`` = vsr_vx / somite_vx compares the physics alone;
+``somite_own_vx`` is somite on the run's own sensors and ``overall_ratio`` = vsr_vx /
+somite_own_vx what the run keeps of its speed in the paper's simulator (with ``own`` the two
+ratios are one). ``generation``, the velocities and the last two columns may be empty, and
+``sensors`` absent (a file written before they existed: ``code``). The report shows the file's
+rows beside the runs and the median ratios per experiment, shape, engine and sensors; without
+the file it says how to make it.
 """
 
 from __future__ import annotations
@@ -32,9 +35,10 @@ from .._io import read_text
 from ..errors import bad
 
 TRANSFER_FILE = "transfer.csv"
-COLUMNS = ("task", "engine", "generation", "somite_vx", "vsr_vx", "ratio", "somite_own_vx",
-           "overall_ratio")
+COLUMNS = ("task", "engine", "sensors", "generation", "somite_vx", "vsr_vx", "ratio",
+           "somite_own_vx", "overall_ratio")
 ENGINES = ("stock", "noccd")
+SENSORS = ("code", "own")
 
 
 def _number(text: str, where: str, name: str) -> float | None:
@@ -62,9 +66,13 @@ def read_transfer(root: Path, tasks: dict[str, tuple[str, str]]) -> dict:
         where = f"{path}, line {number}"
         if row["engine"] not in ENGINES:
             raise bad("transfer", where, f"engine={row['engine']!r}: use one of {ENGINES}")
+        sensors = row.get("sensors") or "code"
+        if sensors not in SENSORS:
+            raise bad("transfer", where, f"sensors={sensors!r}: use one of {SENSORS}")
         experiment, shape = tasks.get(row["task"], ("", ""))
         rows.append({"task": row["task"], "experiment": experiment, "shape": shape,
                      "known": row["task"] in tasks, "engine": row["engine"],
+                     "sensors": sensors,
                      "generation": _number(row.get("generation") or "", where, "generation"),
                      "somite_vx": _number(row.get("somite_vx") or "", where, "somite_vx"),
                      "vsr_vx": _number(row.get("vsr_vx") or "", where, "vsr_vx"),
@@ -74,13 +82,14 @@ def read_transfer(root: Path, tasks: dict[str, tuple[str, str]]) -> dict:
     groups: dict[tuple, list[dict]] = {}
     for row in rows:
         if row["known"]:
-            key = (row["experiment"], row["shape"], row["engine"])
+            key = (row["experiment"], row["shape"], row["engine"], row["sensors"])
             groups.setdefault(key, []).append(row)
     summary = []
-    for (experiment, shape, engine), members in groups.items():
+    for (experiment, shape, engine, sensors), members in groups.items():
         ratios = [m["ratio"] for m in members]
         finite = _finite(ratios)
         summary.append({"experiment": experiment, "shape": shape, "engine": engine,
+                        "sensors": sensors,
                         "runs": len(ratios), "not_finite": len(ratios) - len(finite),
                         "median_ratio": _median(finite),
                         "median_overall_ratio": _median(_finite(
@@ -96,4 +105,4 @@ def _median(values: list[float]) -> float | None:
     return float(np.median(values)) if values else None
 
 
-__all__ = ["COLUMNS", "ENGINES", "TRANSFER_FILE", "read_transfer"]
+__all__ = ["COLUMNS", "ENGINES", "SENSORS", "TRANSFER_FILE", "read_transfer"]

@@ -6,7 +6,7 @@ terrain: runs ``CL dump`` (SENSORS, HIDDEN from the environment of this script's
 and prints per cell the largest reading difference over the first N control steps, the centre's
 x difference at 1 s, 2 s, 5 s and the end, and both v_x.
 
-    source /work/vsr/env.sh
+    source $VSR/env.sh    # the driver's build, with classes-main-sensors/ (README beside)
     PYTHONPATH=src python benchmarks/reference/closed-loop/variant-paper-sensors/check_sensors.py \
         GENOMES.jsonl --terrains flat,hilly-1-10-10000 --sensors paper --hidden tanh
 """
@@ -30,7 +30,9 @@ from somite.sim.system import geometry
 from somite.sim.terrain import parse_terrain
 from somite.tasks.locomotion import simulate_batch
 
-EXPORT = Path("/work/shared/tools/closed-loop-2dvsrsim/export_genomes.py")
+EXPORT = (Path(__file__).resolve().parents[5]
+          / "shared/tools/closed-loop-2dvsrsim/export_genomes.py")
+"""The driver's export script, in ``shared/`` beside the repository (as transfer.py's)."""
 
 
 def main() -> None:

@@ -152,3 +152,22 @@ def test_list_shows_every_cell_and_a_time_at_80_columns(capsys, monkeypatch):
 def test_a_time_is_short():
     assert [about(s) for s in (2.3, 600, 13_125, 2.55e6, 1e9)] == [
         "~2 s", "~10 min", "~3.6 h", "~30 days", "~32 years"]
+
+
+def test_status_shows_the_last_validation_the_log_measured(tmp_path):
+    """A run validates every few generations: its status is the last validation v_x, not the
+    last row's empty cell; a log's tail cut inside a row gives only whole rows."""
+    from somite.campaigns.kinds.common import log_tail
+    from somite.campaigns.kinds.evolve import progress
+
+    rows = [(g, 0.01 * g, 0.5 * g if g % 50 == 0 else None) for g in range(121)]
+    _log(tmp_path / "run", rows)
+    assert progress(tmp_path / "run", {}, False) == {
+        "generation": 120, "best": 1.2, "validation": 50.0}
+    for size in range(100, 140):  # cut anywhere in a row, the first row read is whole
+        tail = log_tail(tmp_path / "run" / "log.csv", size)
+        assert 0 < len(tail) < 10 and [int(r["generation"]) for r in tail] == list(
+            range(121 - len(tail), 121))
+        assert all(float(r["best_velocity"]) == 0.01 * int(r["generation"]) for r in tail)
+    _log(tmp_path / "fresh", rows[1:3])
+    assert progress(tmp_path / "fresh", {}, False)["validation"] is None

@@ -281,8 +281,8 @@ def finished(directory: Path, task: dict) -> bool:
 def state(directory: Path, task: dict) -> dict:
     """What the disk says of ``task``: ``state`` (done, running, partial or queued),
     ``generation`` and ``generations`` (runs), ``best`` (a run's logged best v_x so far, the
-    luckiest terrain draw), ``validation`` (its mean v_x on the validation terrains where the
-    last log row has it; a reassembly's v_x there) and ``done`` (its done.json, if any)."""
+    luckiest terrain draw), ``validation`` (its mean v_x on the validation terrains, the last
+    the log measured; a reassembly's v_x there) and ``done`` (its done.json, if any)."""
     folder = directory / task["path"]
     options = task["options"]
     info = {"id": task["id"], "kind": task["kind"], "state": "queued", "generation": None,

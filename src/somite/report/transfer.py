@@ -5,7 +5,7 @@ somite does not run Java. ``benchmarks/transfer.py`` does (the driver of
 ``shared/tools/closed-loop-2dvsrsim/``), once with dyn4j as shipped (``stock``) and once with
 its continuous collision detection off (``noccd``, where it misfires against the terrain); its
 per-run ratios go into ``transfer.csv`` at the top of the campaign folder (so that a pack
-carries them), one row per run and engine::
+carries them), one row per run, engine and sensors::
 
     task,engine,sensors,generation,somite_vx,vsr_vx,ratio,somite_own_vx,overall_ratio
     rq1/biped-s0,stock,code,3000,3.1,2.9,0.94,4.1,0.71

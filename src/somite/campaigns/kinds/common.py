@@ -106,18 +106,22 @@ def number(text) -> float | None:
         return None
 
 
-def log_tail(path: Path) -> list[dict]:
-    """The last complete row of a run's log (reading the end of the file only)."""
+def log_tail(path: Path, size: int = 4096) -> list[dict]:
+    """The complete rows among the last ``size`` bytes of a run's log, in order (reading the
+    end of the file only)."""
     try:
         with open(path, "rb") as handle:
             header = handle.readline().decode()
-            size = handle.seek(0, os.SEEK_END)
-            handle.seek(max(len(header), size - 4096))
+            end = handle.seek(0, os.SEEK_END)
+            start = max(len(header), end - size)
+            handle.seek(start)
             tail = handle.read().decode(errors="replace")
     except OSError:
         return []
-    lines = [line for line in tail.splitlines() if line.count(",") == header.count(",")]
-    if not lines:
-        return []
-    rows = list(csv.DictReader(io.StringIO(header + lines[-1] + "\n")))
-    return rows if rows and rows[0].get("generation", "").isdigit() else []
+    lines = tail.splitlines()
+    if start > len(header):  # the tail's first line may be a row cut at its start
+        lines = lines[1:]
+    # the last line may be a row still being written
+    lines = [line for line in lines if line.count(",") == header.count(",")]
+    rows = list(csv.DictReader(io.StringIO(header + "".join(line + "\n" for line in lines))))
+    return [row for row in rows if (row.get("generation") or "").isdigit()]

@@ -124,14 +124,22 @@ def read(folder: Path, options: dict) -> dict:
     return {"runs": found, "bests": Genome.load(folder / "best.json"), "sims": sim}
 
 
+TAIL_BYTES = 1 << 16
+"""How much of a log's end :func:`progress` reads: some 500 rows, more than a run's validation
+interval (every 50 generations in the built-ins)."""
+
+
 def progress(folder: Path, options: dict, done: bool) -> dict:
-    """How far the run has got: its last log row's generation, best and validation v_x."""
-    rows = log_tail(folder / "log.csv")
+    """How far the run has got: its last log row's generation and best v_x, and the last
+    validation v_x among the log's last rows (a run validates every few generations)."""
+    rows = log_tail(folder / "log.csv", TAIL_BYTES)
     if not rows:
         return {}
+    validated = [v for v in (number(row["validation_velocity"]) for row in rows)
+                 if v is not None]
     return {"generation": int(rows[-1]["generation"]),
             "best": number(rows[-1]["best_velocity"]),
-            "validation": number(rows[-1]["validation_velocity"])}
+            "validation": validated[-1] if validated else None}
 
 
 def run_steps(options: dict, generations: int | None = None) -> int:

@@ -76,9 +76,12 @@ def _write_report(campaign, loaded, new: Path, validation: int, timelapse: bool,
         t.id: (t.experiment, evolution.task_shape(t, loaded)) for t in campaign.tasks
         if t.kind == "evolve" and t.id in loaded.runs})
     stage("drawing the time-lapses")
-    strips, drawn = draw_strips(rows, loaded, folder, new / "cache" / "timelapse.json") \
-        if timelapse else ([], 0)
+    strips, current, drawn = draw_strips(rows, loaded, folder,
+                                         new / "cache" / "timelapse.json") \
+        if timelapse else ([], {}, 0)
     report["timelapse"] = strips
+    for task, strip in current.items():
+        report["status"]["under_way"][task]["strip"] = strip
     report["cache"] = {"genomes_simulated": simulated, "strips_drawn": drawn}
     report["paper"] = paper.everything()
     report["caveats"] = caveats(campaign, loaded.runs, report)

@@ -125,12 +125,27 @@ def _timelapse(report: dict) -> list[str]:
              "first validation terrain (6 snapshots over the episode, left to right); its "
              "replay page (one HTML file, for a browser) plays the whole episode.", ""]
     if not report["timelapse"]:
-        return lines + ["*No strip drawn.*", ""]
+        lines += ["*No strip drawn.*", ""]
     for strip in report["timelapse"]:
         lines += [f"### {strip['experiment']}, {strip['shape']}: {strip['task']}", "",
                   f"Validation v_x {number(strip['validation'])} m/s, logged "
                   f"{number(strip['logged'])} m/s, on {strip['terrain']}.", "",
                   f"![{strip['task']}]({FIGURES}/{strip['file']})", "",
+                  f"Gait: {strip['gait']}. [Replay page]({FIGURES}/{strip['replay']}).", ""]
+    return lines + _under_way_strips(report)
+
+
+def _under_way_strips(report: dict) -> list[str]:
+    """The best so far of each run under way (an interim report), after the finished ones."""
+    lines = []
+    for task, run in ((report.get("status") or {}).get("under_way") or {}).items():
+        strip = run.get("strip")
+        if strip is None:
+            continue
+        lines += [f"### Under way: {task}, its best at generation {strip['generation']}", "",
+                  f"Logged v_x {number(strip['logged'])} m/s (its generation's draw), on "
+                  f"{strip['terrain']}.", "",
+                  f"![{task}]({FIGURES}/{strip['file']})", "",
                   f"Gait: {strip['gait']}. [Replay page]({FIGURES}/{strip['replay']}).", ""]
     return lines
 

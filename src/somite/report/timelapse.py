@@ -5,14 +5,24 @@ replay page of the same episode and a line saying what its gait is.
 robot walks the first validation terrain with its run's episode settings. A strip and its page
 are drawn again only when its robot, settings or terrain changed
 (``REPORT/cache/timelapse.json``, which also keeps the gait's line).
+
+An interim report (``--under-way``) also draws each run under way's best of its last logged
+generation (the last line of its ``bests.jsonl``) on the same terrain: what its gait is now.
 """
 
 from __future__ import annotations
 
+import json
 import math
+import os
 from pathlib import Path
 
 from ..analysis.gait import analyse_gait
+from ..analysis.stats import RunLog
+from ..brain.genome import Genome
+from ..campaigns.kinds.common import run_config
+from ..errors import SomiteError
+from ..tasks.validation import validation_terrains
 from ..viz.replay import ReplayRun, write_replay
 from ..viz.video import record_episode, write_episode
 from .rerun import cache_key, read_cache, write_cache
@@ -39,37 +49,88 @@ def _score(row: dict | None) -> tuple:
     return (0, row["logged"] if math.isfinite(row["logged"]) else -math.inf)
 
 
-def draw_strips(rows: list[dict], loaded, folder: Path, cache: Path) -> tuple[list[dict], int]:
+def draw_strips(rows: list[dict], loaded, folder: Path, cache: Path
+                ) -> tuple[list[dict], dict[str, dict], int]:
     """Draw the strips and replay pages into ``folder``; returns one entry per strip (file,
-    replay page, gait, task, v_x) and how many were drawn (0 when the cache had them all)."""
-    from ..sim.terrain import parse_terrain
-
+    replay page, gait, task, v_x), one per run under way (task -> file, replay page, gait,
+    terrain, generation) and how many were drawn (0 when the cache had them all)."""
     drawn = read_cache(cache)
     strips, count = [], 0
     for (experiment, shape), row in best_per_experiment(rows).items():
-        genome = loaded.bests[row["task"]]
-        sim = loaded.sims[row["task"]]
-        terrain = row["terrains"][0]
         name = f"timelapse-{experiment}-{shape}.png".replace("/", "-")
         page = f"replay-{experiment}-{shape}.html".replace("/", "-")
-        key = cache_key(genome, sim, [terrain])
-        path = folder / name
-        gait = drawn.get(f"{page}.gait")
-        if (drawn.get(name) != key or drawn.get(page) != key or not isinstance(gait, str)
-                or not path.is_file() or not (folder / page).is_file()):
-            recording = record_episode(genome.body, genome, parse_terrain(terrain), sim)
-            write_episode(recording, path, frames=FRAMES)
-            gait = analyse_gait(recording).description
-            write_replay([ReplayRun(recording, genome, row["task"], gait)], folder / page,
-                         title=f"{experiment}, {shape}: {row['task']}")
-            drawn.update({name: key, page: key, f"{page}.gait": gait})
-            count += 1
+        terrain = row["terrains"][0]
+        gait, new = _draw(drawn, folder, (name, page), loaded.bests[row["task"]],
+                          loaded.sims[row["task"]], terrain, row["task"],
+                          f"{experiment}, {shape}: {row['task']}")
+        count += new
         strips.append({"experiment": experiment, "shape": shape, "task": row["task"],
                        "file": name, "replay": page, "gait": gait, "terrain": terrain,
                        "validation": row["validation"], "logged": row["logged"]})
+    current = {}
+    for task, run in loaded.under_way.items():
+        found = _best_so_far(run)
+        if found is None:
+            continue
+        genome, sim, entry = found
+        stem = task.replace("/", "-")
+        name, page = f"under-way-{stem}.png", f"under-way-{stem}.html"
+        terrain = validation_terrains(1)[0].name
+        gait, new = _draw(drawn, folder, (name, page), genome, sim, terrain, task,
+                          f"{task}, under way: its best at generation {entry['generation']}")
+        count += new
+        current[task] = {"file": name, "replay": page, "gait": gait, "terrain": terrain,
+                         "generation": entry["generation"],
+                         "logged": float(entry.get("velocity", math.nan))}
     if count:
         write_cache(cache, drawn)
-    return strips, count
+    return strips, current, count
+
+
+def _draw(drawn: dict, folder: Path, files: tuple[str, str], genome, sim, terrain: str,
+          task: str, title: str) -> tuple[str, bool]:
+    """The strip and replay page ``files`` of ``genome`` on ``terrain``, drawn unless the cache
+    ``drawn`` has them; returns the gait's line and whether they were drawn."""
+    from ..sim.terrain import parse_terrain
+
+    name, page = files
+    key = cache_key(genome, sim, [terrain])
+    gait = drawn.get(f"{page}.gait")
+    if (drawn.get(name) == key and drawn.get(page) == key and isinstance(gait, str)
+            and (folder / name).is_file() and (folder / page).is_file()):
+        return gait, False
+    recording = record_episode(genome.body, genome, parse_terrain(terrain), sim)
+    write_episode(recording, folder / name, frames=FRAMES)
+    gait = analyse_gait(recording).description
+    write_replay([ReplayRun(recording, genome, task, gait)], folder / page, title=title)
+    drawn.update({name: key, page: key, f"{page}.gait": gait})
+    return gait, True
+
+
+TAIL_BYTES = 1 << 20
+"""How much of the end of ``bests.jsonl`` is read for its last line (a line is a genome: some
+10 kB at the paper's sizes)."""
+
+
+def _best_so_far(run: RunLog):
+    """(genome, episode settings, its bests.jsonl line) of the last generation a run under way
+    wrote whole; None when it has none or it cannot be read."""
+    try:
+        with open(run.path / "bests.jsonl", "rb") as handle:
+            end = handle.seek(0, os.SEEK_END)
+            handle.seek(max(0, end - TAIL_BYTES))
+            lines = handle.read().decode(errors="replace").splitlines()
+        for line in reversed(lines):
+            try:
+                entry = json.loads(line)
+                genome = Genome.from_dict(entry["genome"])
+            except (ValueError, TypeError, KeyError, AttributeError, SomiteError):
+                continue  # the line being written, or the first one cut by the tail
+            if isinstance(entry.get("generation"), int):
+                return genome, run_config(run.config).setup.sim, entry
+    except (OSError, SomiteError):
+        return None
+    return None
 
 
 __all__ = ["best_per_experiment", "draw_strips"]

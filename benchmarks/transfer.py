@@ -437,8 +437,7 @@ def compare(runs: list[Run], terrains: list[Terrain], vsr_cells: dict, seed: int
 
 def _key(genome_data: dict, hidden: str, sensors: str = "code") -> str:
     """A genome as the driver runs it: its JSON, the hidden activation and the sensors."""
-    key = [genome_data, hidden] if sensors == "code" else [genome_data, hidden, sensors]
-    return json.dumps(key, sort_keys=True)
+    return json.dumps([genome_data, hidden, sensors], sort_keys=True)
 
 
 def transfer(paths: list[str], every: int = 50, start: int = 50,

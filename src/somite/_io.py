@@ -262,6 +262,19 @@ def _check_output_file(path: Path, field: str) -> Path:
     return path
 
 
+def tail_lines(path: str | os.PathLike, size: int, skip: int = 0) -> list[str]:
+    """The whole lines among the last ``size`` bytes of a file that is being appended to,
+    after its first ``skip`` bytes (a header read apart): a line the tail cuts at its start is
+    dropped; the last one may still be being written, which the caller checks. Raises
+    OSError."""
+    with open(path, "rb") as handle:
+        end = handle.seek(0, os.SEEK_END)
+        start = max(skip, end - size)
+        handle.seek(start)
+        lines = handle.read().decode(errors="replace").splitlines()
+    return lines[1:] if start > skip else lines
+
+
 def read_text(path: str | os.PathLike, field: str) -> str:
     """The UTF-8 text of the regular file ``path``, or a one-line error naming ``field``: no
     such file, a folder or a FIFO (whose read would wait forever), larger than

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from pathlib import Path
 
+from .._io import tail_lines
 from ..analysis.gait import analyse_gait
 from ..analysis.stats import RunLog
 from ..brain.genome import Genome
@@ -116,16 +116,12 @@ def _best_so_far(run: RunLog):
     """(genome, episode settings, its bests.jsonl line) of the last generation a run under way
     wrote whole; None when it has none or it cannot be read."""
     try:
-        with open(run.path / "bests.jsonl", "rb") as handle:
-            end = handle.seek(0, os.SEEK_END)
-            handle.seek(max(0, end - TAIL_BYTES))
-            lines = handle.read().decode(errors="replace").splitlines()
-        for line in reversed(lines):
+        for line in reversed(tail_lines(run.path / "bests.jsonl", TAIL_BYTES)):
             try:
                 entry = json.loads(line)
                 genome = Genome.from_dict(entry["genome"])
             except (ValueError, TypeError, KeyError, AttributeError, SomiteError):
-                continue  # the line being written, or the first one cut by the tail
+                continue  # the line still being written
             if isinstance(entry.get("generation"), int):
                 return genome, run_config(run.config).setup.sim, entry
     except (OSError, SomiteError):

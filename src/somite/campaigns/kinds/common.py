@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import csv
 import io
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..._io import tail_lines
 from ...errors import SomiteError, bad
 from ...experiments.config import RunConfig, resolve
 from ..layout import at
@@ -112,15 +112,9 @@ def log_tail(path: Path, size: int = 4096) -> list[dict]:
     try:
         with open(path, "rb") as handle:
             header = handle.readline().decode()
-            end = handle.seek(0, os.SEEK_END)
-            start = max(len(header), end - size)
-            handle.seek(start)
-            tail = handle.read().decode(errors="replace")
+        lines = tail_lines(path, size, skip=len(header.encode()))
     except OSError:
         return []
-    lines = tail.splitlines()
-    if start > len(header):  # the tail's first line may be a row cut at its start
-        lines = lines[1:]
     # the last line may be a row still being written
     lines = [line for line in lines if line.count(",") == header.count(",")]
     rows = list(csv.DictReader(io.StringIO(header + "".join(line + "\n" for line in lines))))

@@ -84,50 +84,54 @@ def main() -> dict:
                        "episode_steps_per_second": round(n_steps / episode_seconds),
                        "env_us_per_step_over_episode": round(
                            1e6 * (seconds - episode_seconds) / n_steps, 1)},
-        "by_robots": [],
     }
-    for n in args.sizes:
-        envs = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point",
-                            **kwargs)
-        actions = rng.uniform(-1.0, 1.0, (n_steps, n, 12))
-
-        def vector():
-            envs.reset(seed=0)
-            for step_actions in actions:
-                envs.step(step_actions)
-
-        envs.reset(seed=0)
-        terrains = list(envs.unwrapped.terrains)
-        settings = envs.unwrapped.settings
-        body, config = settings.body, settings.config
-
-        def episode():
-            stepped = Episode([Zero()] * n, terrains, config, bodies=[body] * n)
-            for step_actions in actions:
-                stepped.step(step_actions)
-
-        # Row k is what control step k decides, in force over step k + 1, as the env's
-        # actions[k] (but step 1's actuation: 0 in the compiled loop).
-        tables = [Table(actions[:, b]) for b in range(n)]
-
-        def compiled():
-            simulate_batch([body] * n, terrains, tables, config)
-
-        times = _best({"vector_env": vector, "episode_step": episode, "compiled_loop": compiled},
-                      args.repeats)
-        rate = {k: round(n * n_steps / v) for k, v in times.items()}
-        result["by_robots"].append({
-            "robots": n,
-            "robot_control_steps_per_second": rate,
-            "vector_env_us_per_robot_step_over_compiled_loop": round(
-                1e6 * (times["vector_env"] - times["compiled_loop"]) / (n * n_steps), 2),
-            "vector_env_cost_x_compiled_loop": round(times["vector_env"] / times["compiled_loop"],
-                                                     2),
-            "vector_env_cost_x_episode_step": round(times["vector_env"] / times["episode_step"],
-                                                    2),
-        })
-        envs.close()
+    result["by_robots"] = [_by_robots(n, n_steps, rng, kwargs, args.repeats)
+                           for n in args.sizes]
     return result
+
+
+def _by_robots(n: int, n_steps: int, rng, kwargs: dict, repeats: int) -> dict:
+    """The vector env, Episode.step and the compiled loop, each over n robots."""
+    envs = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+    actions = rng.uniform(-1.0, 1.0, (n_steps, n, 12))
+
+    def vector():
+        envs.reset(seed=0)
+        for step_actions in actions:
+            envs.step(step_actions)
+
+    envs.reset(seed=0)
+    terrains = list(envs.unwrapped.terrains)
+    settings = envs.unwrapped.settings
+    body, config = settings.body, settings.config
+
+    def episode():
+        stepped = Episode([Zero()] * n, terrains, config, bodies=[body] * n)
+        for step_actions in actions:
+            stepped.step(step_actions)
+
+    # Row k is what control step k decides, in force over step k + 1, as the env's
+    # actions[k] (but step 1's actuation: 0 in the compiled loop).
+    tables = [Table(actions[:, b]) for b in range(n)]
+
+    def compiled():
+        simulate_batch([body] * n, terrains, tables, config)
+
+    times = _best({"vector_env": vector, "episode_step": episode, "compiled_loop": compiled},
+                  repeats)
+    rate = {k: round(n * n_steps / v) for k, v in times.items()}
+    row = {
+        "robots": n,
+        "robot_control_steps_per_second": rate,
+        "vector_env_us_per_robot_step_over_compiled_loop": round(
+            1e6 * (times["vector_env"] - times["compiled_loop"]) / (n * n_steps), 2),
+        "vector_env_cost_x_compiled_loop": round(times["vector_env"] / times["compiled_loop"],
+                                                 2),
+        "vector_env_cost_x_episode_step": round(times["vector_env"] / times["episode_step"],
+                                                2),
+    }
+    envs.close()
+    return row
 
 
 if __name__ == "__main__":

@@ -17,6 +17,21 @@ def test_version(capsys):
     assert capsys.readouterr().out == f"somite {somite.__version__}\n"
 
 
+def test_version_is_the_installed_one_and_needs_no_metadata(capsys, monkeypatch):
+    import importlib.metadata
+
+    assert importlib.metadata.version("somite") == somite.__version__
+
+    def missing(name):
+        raise importlib.metadata.PackageNotFoundError(name)
+
+    # As from a source tree on PYTHONPATH, where no package metadata exists.
+    monkeypatch.setattr(importlib.metadata, "version", missing)
+    with pytest.raises(SystemExit):
+        main(["--version"])
+    assert capsys.readouterr().out == f"somite {somite.__version__}\n"
+
+
 def _options(parser: argparse.ArgumentParser, name: str = "somite"):
     for action in parser._actions:
         if isinstance(action, argparse._SubParsersAction):

@@ -64,9 +64,11 @@ def build_parser() -> argparse.ArgumentParser:
         description="Evolve embodied, modular neural controllers for 2-D voxel-based soft "
         "robots. `somite COMMAND --help` gives each command's options.",
     )
-    from importlib.metadata import version
+    # The package's own version, not the installed metadata's: a source tree on PYTHONPATH (a
+    # cluster node, a machine without pip) has none, and the tests keep the two equal.
+    from . import __version__
 
-    parser.add_argument("--version", action="version", version=f"somite {version('somite')}")
+    parser.add_argument("--version", action="version", version=f"somite {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name in command_names():
         module = import_module(f".commands.{name}", __package__)

@@ -5,7 +5,8 @@
 Per run: the last logged generation, its best v_x (the luckiest draw of that generation's
 terrain and noise), the last validation v_x (the same best re-run on the fixed validation
 terrains, every 50 generations), |G| (nodes + edges of the best) and the seconds its last 100
-generations took (``elapsed_seconds`` of the log: one core each, shared with whatever else ran).
+generations took here (``elapsed_seconds`` of the log: one core each, shared with whatever else
+ran; see :data:`ELSEWHERE`).
 From the rates, the remaining cost of the whole campaign (3 seeds), twice: at each run's
 fastest 100 generations among its last 500 (the closest to an idle machine) and at its latest
 100 (the machine as shared lately)."""
@@ -23,6 +24,10 @@ RUNS = [f"{variant}/{shape}-s{seed}" for variant in ("rq1", "ablation")
 """Every run of the built-in paper-rq1 campaign (3 seeds)."""
 RECENT = 100
 WINDOW = 500
+ELSEWHERE = {"ablation/biped-s0": 215, "ablation/worm-s0": 194}
+"""Runs whose first generations, up to these, were computed on another machine (16 cores, 7
+Numba threads a run: README.md): their rates are not this machine's, so a run's rate is read
+from its later rows only."""
 
 
 def rows(campaign: Path):
@@ -32,13 +37,15 @@ def rows(campaign: Path):
         if not lines:
             continue
         last = lines[-1]
+        run = str(log.parent.relative_to(campaign))
         validated = [line for line in lines if line["validation_velocity"]]
         check = validated[-1] if validated else None
-        elapsed = [float(line["elapsed_seconds"]) for line in lines[-WINDOW - 1:]]
+        here = [line for line in lines if int(line["generation"]) > ELSEWHERE.get(run, -1)]
+        elapsed = [float(line["elapsed_seconds"]) for line in here[-WINDOW - 1:]]
         rates = [(elapsed[i + RECENT] - elapsed[i]) / RECENT
                  for i in range(0, len(elapsed) - RECENT, 10)]
         rate = ((elapsed[-1] - elapsed[-RECENT - 1]) / RECENT, min(rates)) if rates else None
-        yield (str(log.parent.relative_to(campaign)), int(last["generation"]),
+        yield (run, int(last["generation"]),
                float(last["best_velocity"]),
                f"{float(check['validation_velocity']):.2f} (gen {check['generation']})"
                if check else "-", int(last["best_size"]), rate)

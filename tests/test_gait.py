@@ -26,14 +26,15 @@ T = np.arange(CONFIG.n_steps + 1) / CONTROL_HZ
 COLUMNS = np.array([x for x, _ in WORM.shape.voxels], dtype=float)
 
 
-def made_up(actuation, velocity=1.0, contact=None, com_x=None):
+def made_up(actuation, velocity=1.0, contact=None, com_x=None, config=CONFIG):
     corners = geometry(WORM).corners.astype(np.int64)
     n_points = int(corners.max()) + 1
-    com = np.zeros((len(T), 2))
-    com[:, 0] = velocity * T if com_x is None else com_x
+    t = np.arange(config.n_steps + 1) / CONTROL_HZ
+    com = np.zeros((len(t), 2))
+    com[:, 0] = velocity * t if com_x is None else com_x
     return SimpleNamespace(
-        body=WORM, config=CONFIG, actuation=np.asarray(actuation, dtype=float),
-        contact=np.zeros((len(T), n_points), bool) if contact is None else contact,
+        body=WORM, config=config, actuation=np.asarray(actuation, dtype=float),
+        contact=np.zeros((len(t), n_points), bool) if contact is None else contact,
         corners=corners, com=com, velocity=velocity)
 
 
@@ -70,6 +71,27 @@ def test_voxels_in_phase_and_in_two_groups():
     sign = np.where(np.arange(12) % 2 == 0, 1.0, -1.0)
     halves = analyse_gait(made_up(np.sin(2 * np.pi * 3 * T)[:, None] * sign, velocity=0.01))
     assert halves.pattern == "alternating" and halves.description.endswith("it barely moves")
+
+
+def test_a_slow_drift_of_posture_is_not_the_rhythm():
+    # 30 s, measured over 25 s: 0.04 Hz bins. Every voxel drifts by 0.6 over one slow cycle
+    # while two groups alternate at 3 Hz with half that swing.
+    config = preset("paper", duration=30.0)
+    t = np.arange(config.n_steps + 1) / CONTROL_HZ
+    drift = 0.6 * np.sin(2 * np.pi * 0.04 * (t - 5.0))[:, None]
+    sign = np.where(np.arange(12) % 2 == 0, 1.0, -1.0)
+    gait = analyse_gait(made_up(drift + 0.3 * np.sin(2 * np.pi * 3 * t)[:, None] * sign,
+                                config=config))
+    assert gait.frequency == pytest.approx(3.0)
+    assert gait.description == ("two groups of voxels pulse in alternation at 3 Hz; forward at "
+                                "1.00 m/s")
+    # A voxel that only drifts keeps its own frequency, written to two significant digits.
+    alone = np.full((len(t), 12), -0.3)
+    alone[:, 3] = drift[:, 0]
+    gait = analyse_gait(made_up(alone, config=config))
+    assert gait.voxels[3].frequency == pytest.approx(0.04)
+    assert gait.description == ("voxel 3 swings at 0.04 Hz, the rest hold a pose; forward at "
+                                "1.00 m/s")
 
 
 def test_still_robot_and_duty_factor_and_stride():

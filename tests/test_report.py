@@ -215,6 +215,16 @@ def test_a_second_report_simulates_nothing_and_says_the_same(campaign, report):
     third = json.loads((out / "report.json").read_text())
     assert third["cache"] == {"genomes_simulated": 1, "strips_drawn": 0}
     assert third["validation"] == first["validation"]
+    # A gait line written by other rules of the gait summary (an older somite) is drawn again.
+    strips = out / "cache" / "timelapse.json"
+    saved = json.loads(strips.read_text())
+    stale = next(k for k in saved["entries"] if k.endswith(".gait"))
+    saved["entries"][stale] = {**saved["entries"][stale], "rules": "older"}
+    strips.write_text(json.dumps(saved))
+    assert main(["report", str(campaign), "--out", str(out), "--quiet"]) == 0
+    fourth = json.loads((out / "report.json").read_text())
+    assert fourth["cache"] == {"genomes_simulated": 0, "strips_drawn": 1}
+    assert fourth["timelapse"] == first["timelapse"]
 
 
 def test_a_finished_task_that_cannot_be_read_is_shown_as_missing(campaign, tmp_path, capsys):

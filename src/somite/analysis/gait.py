@@ -9,9 +9,10 @@ of the episode (after the transient):
   robot's main frequency (relative to the first moving voxel from the back), whether it is
   still (swings less than :data:`STILL_AMPLITUDE`), and its duty factor (the share of steps in
   which one of its corners touches the ground);
-- the robot's main actuation frequency (the peak of the summed spectra of the moving voxels)
-  and the stride frequency of its centre of mass (the peak, from :data:`MIN_STRIDE_HZ` up, of
-  the spectrum of its horizontal velocity, its linear trend removed);
+- the robot's main actuation frequency (the peak, from :data:`MIN_RHYTHM_HZ` up, of the summed
+  spectra of the moving voxels) and the stride frequency of its centre of mass (the peak, from
+  :data:`MIN_STRIDE_HZ` up, of the spectrum of its horizontal velocity, its linear trend
+  removed);
 - a pattern and a one-line description: a few voxels vibrating while the rest hold a pose,
   a travelling wave (back to front or front to back), voxels pulsing together or in two
   alternating groups, or no simple pattern.
@@ -41,9 +42,13 @@ STANDING = 0.05
 MIN_WAVE = math.pi / 3
 """Phase change [rad] across the body from which a coherent phase slope is a travelling wave."""
 COHERENT = 0.8
+"""How well the phases must follow a line (the length of the mean residual phasor, 0..1)."""
 MIN_STRIDE_HZ = 0.5
 """The stride frequency is looked for from here up: slower changes of v_x are drift."""
-"""How well the phases must follow a line (the length of the mean residual phasor, 0..1)."""
+MIN_RHYTHM_HZ = 0.2
+"""The main actuation frequency is looked for from here up (5 cycles over the 25 s measured):
+a slower swing is a drift of posture, and named the main frequency it made a robot vibrating
+at 12 Hz "pulse at 0 Hz"."""
 
 
 @dataclass(frozen=True)
@@ -143,8 +148,9 @@ def analyse_gait(recording) -> Gait:
     still = amplitude < STILL_AMPLITUDE
     peak = np.argmax(spectra[:, 1:], axis=1) + 1 if len(freqs) > 1 else np.zeros(n_voxels, int)
     moving = np.flatnonzero(~still)
-    if len(moving) and len(freqs) > 1:
-        main_bin = int(np.argmax(spectra[moving, 1:].sum(axis=0))) + 1
+    rhythm = np.flatnonzero(freqs >= MIN_RHYTHM_HZ)
+    if len(moving) and len(rhythm):
+        main_bin = int(rhythm[np.argmax(spectra[moving][:, rhythm].sum(axis=0))])
         main = float(freqs[main_bin])
         phasor = np.fft.rfft(act - act.mean(axis=1, keepdims=True), axis=1)[:, main_bin]
         back = moving[np.argmin([voxels[v][0] for v in moving])]
@@ -190,7 +196,8 @@ def _listing(numbers: list[int]) -> str:
 
 
 def _hz(f: float) -> str:
-    text = f"{f:.1f}" if f < 9.95 else f"{f:.0f}"
+    # Two significant digits below 1 Hz: a 25 s window resolves 0.04 Hz, which "0.0" hid.
+    text = f"{f:.2g}" if f < 0.95 else f"{f:.1f}" if f < 9.95 else f"{f:.0f}"
     return f"{text.removesuffix('.0')} Hz"
 
 

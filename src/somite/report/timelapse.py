@@ -4,7 +4,8 @@ replay page of the same episode and a line saying what its gait is.
 "Best" is the highest mean v_x on the validation terrains, not the luckiest logged draw. The
 robot walks the first validation terrain with its run's episode settings. A strip and its page
 are drawn again only when its robot, settings or terrain changed
-(``REPORT/cache/timelapse.json``, which also keeps the gait's line).
+(``REPORT/cache/timelapse.json``, which also keeps the gait's line, with a digest of the gait
+summary's source: a line written by other rules is stale, and drawn again).
 
 An interim report (``--under-way``) also draws each run under way's best of its last logged
 generation (the last line of its ``bests.jsonl``) on the same terrain: what its gait is now.
@@ -12,11 +13,13 @@ generation (the last line of its ``bests.jsonl``) on the same terrain: what its 
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from pathlib import Path
 
 from .._io import tail_lines
+from ..analysis import gait as gait_rules
 from ..analysis.gait import analyse_gait
 from ..analysis.stats import RunLog
 from ..brain.genome import Genome
@@ -95,16 +98,23 @@ def _draw(drawn: dict, folder: Path, files: tuple[str, str], genome, sim, terrai
 
     name, page = files
     key = cache_key(genome, sim, [terrain])
-    gait = drawn.get(f"{page}.gait")
-    if (drawn.get(name) == key and drawn.get(page) == key and isinstance(gait, str)
+    rules = _rules()
+    cached = drawn.get(f"{page}.gait")
+    if (drawn.get(name) == key and drawn.get(page) == key and isinstance(cached, dict)
+            and cached.get("rules") == rules and isinstance(cached.get("line"), str)
             and (folder / name).is_file() and (folder / page).is_file()):
-        return gait, False
+        return cached["line"], False
     recording = record_episode(genome.body, genome, parse_terrain(terrain), sim)
     write_episode(recording, folder / name, frames=FRAMES)
     gait = analyse_gait(recording).description
     write_replay([ReplayRun(recording, genome, task, gait)], folder / page, title=title)
-    drawn.update({name: key, page: key, f"{page}.gait": gait})
+    drawn.update({name: key, page: key, f"{page}.gait": {"rules": rules, "line": gait}})
     return gait, True
+
+
+def _rules() -> str:
+    """A digest of the gait summary's source (:mod:`somite.analysis.gait`)."""
+    return hashlib.sha256(Path(gait_rules.__file__).read_bytes()).hexdigest()[:16]
 
 
 TAIL_BYTES = 1 << 20

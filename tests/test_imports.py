@@ -46,7 +46,7 @@ ALLOWED = {
     "campaigns": {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis"},
     "__init__": BELOW_TOP,
     "commands": BELOW_TOP | {"commands", "__init__", "report"},
-    "cli": {"commands"},
+    "cli": {"commands", "__init__"},  # the package's version
 }
 """Part of somite -> the other parts it may import (besides the foundation)."""
 

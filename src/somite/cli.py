@@ -66,7 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     # The package's own version, not the installed metadata's: a source tree on PYTHONPATH (a
     # cluster node, a machine without pip) has none, and the tests keep the two equal.
-    from . import __version__
+    from somite import __version__
 
     parser.add_argument("--version", action="version", version=f"somite {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)

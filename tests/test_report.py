@@ -389,3 +389,12 @@ def test_an_interim_report_draws_the_runs_under_way_in_the_curves_only(campaign,
     # without the flag the same campaign's report draws finished runs only
     assert report[1]["status"]["under_way"] == {}
     assert report[1]["figure3"]["curves"]["worm"]["omega 1"]["under_way"] == {}
+    # The next report without the flag (or once the run has finished) names no strip of it, and
+    # leaves none beside it: the strip, its page and their cache entries are gone.
+    assert main(["report", str(copy), "--out", str(out), "--quiet"]) == 0
+    assert not (out / "figures" / strip["file"]).exists()
+    assert not (out / "figures" / strip["replay"]).exists()
+    cached = json.loads((out / "cache" / "timelapse.json").read_text())["entries"]
+    assert not any(key.startswith(strip["file"]) or key.startswith(strip["replay"])
+                   for key in cached)
+    assert (out / "figures" / data["timelapse"][0]["file"]).is_file()

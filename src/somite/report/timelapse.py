@@ -31,6 +31,8 @@ from ..viz.video import record_episode, write_episode
 from .rerun import cache_key, read_cache, write_cache
 
 FRAMES = 6
+UNDER_WAY = "under-way-"
+"""The name prefix of the strips and replay pages of runs under way."""
 
 
 def best_per_experiment(rows: list[dict]) -> dict[tuple[str, str], dict]:
@@ -77,7 +79,7 @@ def draw_strips(rows: list[dict], loaded, folder: Path, cache: Path
             continue
         genome, sim, entry = found
         stem = task.replace("/", "-")
-        name, page = f"under-way-{stem}.png", f"under-way-{stem}.html"
+        name, page = f"{UNDER_WAY}{stem}.png", f"{UNDER_WAY}{stem}.html"
         terrain = validation_terrains(1)[0].name
         gait, new = _draw(drawn, folder, (name, page), genome, sim, terrain, task,
                           f"{task}, under way: its best at generation {entry['generation']}")
@@ -85,9 +87,26 @@ def draw_strips(rows: list[dict], loaded, folder: Path, cache: Path
         current[task] = {"file": name, "replay": page, "gait": gait, "terrain": terrain,
                          "generation": entry["generation"],
                          "logged": float(entry.get("velocity", math.nan))}
-    if count:
+    forgotten = _remove_stale(folder, current, drawn)
+    if count or forgotten:
         write_cache(cache, drawn)
     return strips, current, count
+
+
+def _remove_stale(folder: Path, current: dict[str, dict], drawn: dict) -> bool:
+    """Remove the strips and pages of runs no longer under way (finished, or a report no longer
+    ``--under-way``), which nothing in the report names, and forget them in the cache ``drawn``;
+    whether any was removed."""
+    kept = {name for entry in current.values() for name in (entry["file"], entry["replay"])}
+    removed = False
+    for old in sorted(folder.glob(f"{UNDER_WAY}*")):
+        if old.name in kept or old.suffix not in (".png", ".html"):
+            continue
+        old.unlink()
+        for key in (old.name, f"{old.name}.gait"):
+            drawn.pop(key, None)
+        removed = True
+    return removed
 
 
 def _draw(drawn: dict, folder: Path, files: tuple[str, str], genome, sim, terrain: str,

@@ -55,13 +55,12 @@ def advance(seconds: float, out: Path, tasks: list[str], threads: int, check: st
     jobs = [(work / "campaign", task, threads) for task in tasks]
     if check:
         jobs.append((work / "check", check, check_threads))
-    processes = []
-    for folder, task, n in jobs:
-        if task not in listed:
-            raise SystemExit(f"elsewhere.py: no task {task!r} in the pack")
-        processes.append(subprocess.Popen(
-            [sys.executable, "-c", RUN, str(folder), json.dumps(listed[task]), str(n)],
-            env=env, start_new_session=True))
+    unknown = [task for _, task, _ in jobs if task not in listed]
+    if unknown:  # before any run starts: a started one would be left running
+        raise SystemExit(f"elsewhere.py: no task {unknown[0]!r} in the pack")
+    processes = [subprocess.Popen(
+        [sys.executable, "-c", RUN, str(folder), json.dumps(listed[task]), str(n)],
+        env=env, start_new_session=True) for folder, task, n in jobs]
     while time.time() < start + seconds and any(p.poll() is None for p in processes):
         time.sleep(2)
     for p in processes:

@@ -132,6 +132,26 @@ def test_tasks_follow_the_contract():
     assert by_id["omega-reassembly/omega-10-worm-s0+s1-reopt"]["options"]["omega"] == 10.0
 
 
+def test_begun_runs_start_before_new_ones_then_the_campaigns_order(tmp_path):
+    """A campaign grown by seeds lists the new rq1 seeds before the ablation's seed 0: when
+    that seed has begun, it goes on first, so that seed 0 of every pair finishes first."""
+    from somite.campaigns.executor import priorities
+
+    tasks = [t for t in expand(builtin("paper-rq1")) if not t["id"].startswith("rq1/biped-s0")]
+    order = [t["id"] for t in tasks]
+    assert order.index("rq1/worm-s2") < order.index("ablation/biped-s0")
+    fresh = priorities(tmp_path, tasks)
+    assert sorted(fresh, key=fresh.get, reverse=True) == order
+    for begun in ("ablation/worm-s0", "ablation/biped-s0", "rq1/worm-s0"):
+        (tmp_path / begun).mkdir(parents=True)
+    (tmp_path / "rq1").mkdir(exist_ok=True)  # an experiment's folder begins no run
+    grown = priorities(tmp_path, tasks)
+    first = sorted(grown, key=grown.get, reverse=True)
+    assert first[:3] == ["rq1/worm-s0", "ablation/biped-s0", "ablation/worm-s0"]
+    assert first[3:] == [t for t in order if t not in first[:3]]
+    assert sorted(grown.values()) == list(range(1, len(tasks) + 1))
+
+
 def test_variants_are_a_dimension_of_the_grid():
     campaign = parse({"defaults": {"generations": 5}, "experiments": {
         "w": {"kind": "evolve", "shapes": ["worm"], "seeds": [4, 5],

@@ -162,13 +162,12 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
     try:
         outcome.dashboard = dashboard_link(client, cluster is not None)
         token = uuid.uuid4().hex[:8]  # a scheduler may hold another campaign's tasks
-        for rank, task in enumerate(tasks):
+        priority = priorities(directory, tasks)
+        for task in tasks:
             needs = [futures[n] for n in task["needs"] if n in futures]
-            # Earlier tasks first (Dask's own order is not the campaign's): the runs of the
-            # first experiments finish first, and a killed campaign leaves few partial ones.
             futures[task["id"]] = client.submit(
                 run_task, str(directory), task, threads, *needs, key=f"{task['id']}@{token}",
-                pure=False, retries=retries, priority=len(tasks) - rank)
+                pure=False, retries=retries, priority=priority[task["id"]])
         needs = {t["id"]: t["needs"] for t in tasks}
         pending = dict(futures)
         while pending:
@@ -195,6 +194,16 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
             connection.close()
     outcome.wall_s = time.perf_counter() - start
     return outcome
+
+
+def priorities(directory: Path, tasks: list[dict]) -> dict[str, int]:
+    """Each unfinished task's Dask priority (higher starts first): the tasks already begun
+    (their folder exists), then the others, each in the campaign's order. Dask's own order is
+    not the campaign's. In the campaign's order, the runs of the first experiments finish first
+    and a killed campaign leaves few partial ones; begun ones first, a campaign grown by seeds
+    finishes the runs it has before it starts the new seeds, which come earlier in its order."""
+    begun = sorted(tasks, key=lambda task: not (directory / task["path"]).is_dir())
+    return {task["id"]: len(tasks) - rank for rank, task in enumerate(begun)}
 
 
 def _reason(future) -> str:

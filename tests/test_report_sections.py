@@ -66,3 +66,17 @@ def test_what_a_new_kind_reads_is_kept_under_its_own_name():
     loaded.add("bake/a", {"runs": "log", "loaves": 3})
     assert loaded.runs == {"bake/a": "log"}
     assert loaded.found("loaves") == {"bake/a": 3} and loaded.other == {"loaves": {"bake/a": 3}}
+
+
+def test_a_figure_without_two_finished_groups_says_why_it_has_no_test():
+    """An interim report of one finished run: Figure 5 says it has nothing to test, where it
+    showed the header of an empty table."""
+    report = smoke_report()
+    for comparison in report["figure5"]["comparison"].values():
+        for sample in ("logged", "validation"):
+            comparison[sample]["tests"] = []
+    text = markdown.render_markdown(report)
+    figure5 = text.split("## Figure 5")[1].split("\n## ")[0]
+    assert "*No pair to test: no shape has finished tasks in two groups.*" in figure5
+    assert "| sample | pair |" not in figure5
+    assert text.count("| sample | pair |") == 2  # Figure 11's and Figure 9's tables stay

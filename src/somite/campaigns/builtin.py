@@ -106,7 +106,7 @@ def _rq1(grid: dict) -> dict:
                 "paper": "Section 5.1: Table 1, Figures 3, 4, 5"},
         "ablation": {**grid, "options": {"weights_only": True},
                      "title": "Ablation: weights-only mutation",
-                     "paper": "Section 5.1: Figures 3, 5 (weights only)"},
+                     "paper": "Section 5.1.1: Figure 5 (weights only)"},
     }
 
 

@@ -19,7 +19,7 @@ from . import paper
 from .campaign import CampaignFolder, Task
 from .load import Loaded, shape_name
 from .section import Inputs, Section
-from .text import claim, images, median_sd, number, p_noted, pair_rows, table
+from .text import claim, images, median_sd, number, p_noted, pair_rows, table, tests_table
 
 TITLES = {
     "table1": "Table 1: the best controller at the start and at the end",
@@ -347,7 +347,7 @@ def _render_boxes(report: dict) -> list[str]:
             tests += pair_rows(c["validation"], f"{shape}, validation")
         lines += table(["shape", "group", "runs", "logged v_x", "v_x on validation terrains"],
                        rows)
-        lines += table(["sample", "pair", "n_a", "n_b", "U", "p (two-sided)"], tests)
+        lines += tests_table(tests)
         paper_tests = [[f"{shape}, {which}", f"{t['a']} > {t['b']}", number(t["u"], 1),
                         p_noted(t)]
                        for shape, found in data.get("one_sided", {}).items()

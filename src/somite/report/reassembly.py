@@ -23,7 +23,7 @@ from .campaign import CampaignFolder, Task, task_row
 from .evolution import compare, shape_order
 from .load import Loaded, shape_name
 from .section import Inputs, Section
-from .text import claim, images, number, pair_rows, table
+from .text import claim, images, number, pair_rows, table, tests_table
 
 TITLES = {
     "figure7": "Figure 7: rho during re-optimisation, homogeneous and heterogeneous reassembly",
@@ -246,7 +246,7 @@ def _rho_table(data: dict, reported=None) -> list[str]:
                    "median rho at the end", "paper"], rows)
     if tests:
         lines += ["rho at the end of the re-optimisation, compared:", ""]
-        lines += table(["shape", "pair", "n_a", "n_b", "U", "p (two-sided)"], tests)
+        lines += tests_table(tests, "shape")
     return lines
 
 
@@ -287,7 +287,7 @@ def _render_eta(report: dict) -> list[str]:
         tests += pair_rows(e["eta_weight"], f"{shape}, eta_weight")
     lines += table(["shape", "donors", "reassemblies", "median eta_num", "median eta_weight",
                     "paper (median eta_num / eta_weight)"], rows)
-    lines += table(["sample", "pair", "n_a", "n_b", "U", "p (two-sided)"], tests)
+    lines += tests_table(tests)
     for which, files in data["files"].items():
         lines += images(files, f"Figure 9, {which}")
     return lines

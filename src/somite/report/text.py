@@ -57,6 +57,17 @@ def p_noted(test: dict) -> str:
     return f"{p_value(test['p'])} ({caveat})" if caveat else p_value(test["p"])
 
 
+TESTS_HEADER = ["sample", "pair", "n_a", "n_b", "U", "p (two-sided)"]
+
+
+def tests_table(tests: list[list], first: str = "sample") -> list[str]:
+    """The pairwise tests' table (rows of :func:`pair_rows`), or a line saying why there is
+    none: an empty table reads as a fault of the report."""
+    if not tests:
+        return ["*No pair to test: no shape has finished tasks in two groups.*", ""]
+    return table([first, *TESTS_HEADER[1:]], tests)
+
+
 def pair_rows(comparison: dict, label: str) -> list[list]:
     """One table row per pairwise test of a comparison (:func:`.evolution.compare`)."""
     return [[label, f"{t['a']} vs {t['b']}", t["n_a"], t["n_b"], number(t["u"], 1),
@@ -64,4 +75,4 @@ def pair_rows(comparison: dict, label: str) -> list[list]:
 
 
 __all__ = ["FIGURES", "claim", "images", "median_sd", "number", "p_noted", "p_value",
-           "pair_rows", "table"]
+           "pair_rows", "table", "tests_table"]

@@ -85,12 +85,13 @@ def test_a_slow_drift_of_posture_is_not_the_rhythm():
     assert gait.frequency == pytest.approx(3.0)
     assert gait.description == ("two groups of voxels pulse in alternation at 3 Hz; forward at "
                                 "1.00 m/s")
-    # A voxel that only drifts keeps its own frequency, written to two significant digits.
+    # A voxel that only drifts keeps its own frequency, written to two significant digits, and
+    # is said to drift: slower than MIN_RHYTHM_HZ is a drift of posture, not a swing.
     alone = np.full((len(t), 12), -0.3)
     alone[:, 3] = drift[:, 0]
     gait = analyse_gait(made_up(alone, config=config))
     assert gait.voxels[3].frequency == pytest.approx(0.04)
-    assert gait.description == ("voxel 3 swings at 0.04 Hz, the rest hold a pose; forward at "
+    assert gait.description == ("voxel 3 drifts at 0.04 Hz, the rest hold a pose; forward at "
                                 "1.00 m/s")
 
 

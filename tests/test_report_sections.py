@@ -48,6 +48,7 @@ def test_a_new_kind_shows_its_section_after_the_others(monkeypatch):
     monkeypatch.setattr(sections, "SECTIONS", {**sections.SECTIONS, "bake": extra})
     monkeypatch.setattr(sections, "EXPERIMENT_KINDS", (*EXPERIMENT_KINDS, "bake"))
     report = {**smoke_report(), "bake": {"loaves": 3}}
+    report["campaign"]["kinds"].append("bake")
     text = markdown.render_markdown(report)
     assert text.index("## Figure 12") < text.index("## Baked: 3 loaves") < text.index(
         "## Beyond the paper: every final best")
@@ -80,3 +81,23 @@ def test_a_figure_without_two_finished_groups_says_why_it_has_no_test():
     assert "*No pair to test: no shape has finished tasks in two groups.*" in figure5
     assert "| sample | pair |" not in figure5
     assert text.count("| sample | pair |") == 2  # Figure 11's and Figure 9's tables stay
+
+
+def test_a_campaign_of_evolve_experiments_alone_shows_no_empty_reassembly_sections():
+    """paper-rq1 has evolve experiments only: Figures 7-9 and 12 would be headers of empty
+    tables, so index.md leaves them out and says so once; a report.json written before
+    ``campaign.kinds`` existed still shows every section."""
+    everything = markdown.render_markdown(smoke_report())
+    report = smoke_report()
+    report["campaign"]["kinds"] = ["evolve"]
+    report["figures"]["missing"] = {"figure7": "no reassemble experiment declares it",
+                                    "figure10": "no evolve experiment declares it"}
+    text = markdown.render_markdown(report)
+    for title in ("## Figures 7 and 8", "## Figure 9", "## Figure 12"):
+        assert title in everything and title not in text
+    for title in ("## Figure 3", "## Figure 5", "## Beyond the paper: every final best"):
+        assert title in text
+    assert "The campaign has no reassemble or discover experiment: the report leaves out " \
+           "their sections." in text
+    assert "left empty: figure10: no evolve experiment declares it." in text
+    assert "figure7" not in text.split("## Figure 3")[0]

@@ -222,9 +222,10 @@ def describe_gait(voxels: tuple[VoxelGait, ...], main: float, velocity: float
         fast = any(v.frequency >= VIBRATION_HZ for v in moving)
         parts = []
         for hz, ids in groups.items():
-            quick = float(hz.split()[0]) >= VIBRATION_HZ
-            verb = ("vibrates" if quick else "swings") if len(ids) == 1 else (
-                "vibrate" if quick else "swing")
+            rate = float(hz.split()[0])
+            verb = "vibrate" if rate >= VIBRATION_HZ else "swing" if rate >= MIN_RHYTHM_HZ \
+                else "drift"
+            verb += "s" if len(ids) == 1 else ""
             parts.append(f"{'voxel' if len(ids) == 1 else 'voxels'} {_listing(ids)} {verb} "
                          f"at {hz}")
         rest = ", the rest hold a pose" if len(moving) < len(voxels) else ""

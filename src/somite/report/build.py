@@ -25,7 +25,7 @@ from .load import load, shape_name
 from .markdown import render_html, render_markdown
 from .rerun import rerun_finals
 from .section import Inputs
-from .sections import in_order
+from .sections import SECTIONS, in_order
 from .staging import staged_report
 from .timelapse import draw_strips
 from .transfer import read_transfer
@@ -61,7 +61,8 @@ def _write_report(campaign, loaded, new: Path, validation: int, timelapse: bool,
     report = {
         **REPORT.header(),
         "campaign": {"name": campaign.name, "source": campaign.source,
-                     "directory": str(campaign.root), "experiments": campaign.experiments},
+                     "directory": str(campaign.root), "experiments": campaign.experiments,
+                     "kinds": [kind for kind in SECTIONS if campaign.of_kind(kind)]},
         "caveats": None,  # filled last, from the numbers below; kept first in report.json
         "status": {"experiments": campaign.status(loaded.broken), "unreadable": loaded.broken,
                    "under_way": _under_way(loaded)},

@@ -7,13 +7,14 @@ written here; each experiment kind's between them, by its section (:mod:`.sectio
 from __future__ import annotations
 
 from ..analysis.stats import MIN_GROUP_SIZE
-from .sections import in_order
+from ..campaigns.figures import FIGURES as DECLARABLE
+from . import sections
 from .text import FIGURES, images, median_sd, number, table
 
 
 def render_markdown(report: dict) -> str:
     lines: list[str] = []
-    kinds = [section.render for section in in_order()]
+    kinds = [sections.SECTIONS[kind].render for kind in sections.shown(report)]
     for part in (_head, _status, *kinds, _validation, _transfer, _timelapse):
         lines += part(report)
     return "\n".join(lines).rstrip() + "\n"
@@ -62,12 +63,20 @@ def _status(report: dict) -> list[str]:
 def _missing_figures(report: dict) -> list[str]:
     """One line: the figures no experiment of the campaign feeds, and why (report.json's
     ``figures.missing``; an experiment declares them in its ``figures`` table)."""
-    missing = (report.get("figures") or {}).get("missing") or {}
-    if not missing:
-        return []
-    reasons = "; ".join(f"{name}: {why}" for name, why in missing.items())
-    return [f"Figures no experiment feeds (declared by an experiment's `figures` table in the "
-            f"campaign file), left empty: {reasons}.", ""]
+    kinds = sections.shown(report)
+    missing = {name: why for name, why in
+               ((report.get("figures") or {}).get("missing") or {}).items()
+               if name not in DECLARABLE or DECLARABLE[name].kind in kinds}
+    lines = []
+    if missing:
+        reasons = "; ".join(f"{name}: {why}" for name, why in missing.items())
+        lines += [f"Figures no experiment feeds (declared by an experiment's `figures` table "
+                  f"in the campaign file), left empty: {reasons}.", ""]
+    absent = [kind for kind in sections.SECTIONS if kind not in kinds]
+    if absent:
+        lines += [f"The campaign has no {' or '.join(absent)} experiment: the report leaves "
+                  "out their sections.", ""]
+    return lines
 
 
 def _validation(report: dict) -> list[str]:

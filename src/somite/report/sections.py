@@ -26,4 +26,12 @@ def in_order() -> list[Section]:
     return [SECTIONS[kind] for kind in EXPERIMENT_KINDS]
 
 
-__all__ = ["SECTIONS", "in_order"]
+def shown(report: dict) -> list[str]:
+    """The kinds whose sections index.md shows: those of the campaign's experiments
+    (report.json's ``campaign.kinds``; a report.json written before it lists no kinds shows
+    them all). A section of a kind the campaign lacks would be empty tables."""
+    kinds = report["campaign"].get("kinds")
+    return list(EXPERIMENT_KINDS) if kinds is None else [k for k in EXPERIMENT_KINDS if k in kinds]
+
+
+__all__ = ["SECTIONS", "in_order", "shown"]

@@ -7,6 +7,7 @@ import csv
 import io
 import json
 import os
+import shutil
 import signal
 import socket
 import subprocess
@@ -135,7 +136,7 @@ def test_tasks_follow_the_contract():
 def test_begun_runs_start_before_new_ones_then_the_campaigns_order(tmp_path):
     """A campaign grown by seeds lists the new rq1 seeds before the ablation's seed 0: when
     that seed has begun, it goes on first, so that seed 0 of every pair finishes first."""
-    from somite.campaigns.executor import priorities
+    from somite.campaigns.executor import priorities, submission_order
 
     tasks = [t for t in expand(builtin("paper-rq1")) if not t["id"].startswith("rq1/biped-s0")]
     order = [t["id"] for t in tasks]
@@ -150,6 +151,13 @@ def test_begun_runs_start_before_new_ones_then_the_campaigns_order(tmp_path):
     assert first[:3] == ["rq1/worm-s0", "ablation/biped-s0", "ablation/worm-s0"]
     assert first[3:] == [t for t in order if t not in first[:3]]
     assert sorted(grown.values()) == list(range(1, len(tasks) + 1))
+    # Submitted by priority, but never before a task it needs (a reassembly needs its donors).
+    smoke = expand(builtin("smoke"))
+    (tmp_path / "rq2-homo" / "worm-s1+s0").mkdir(parents=True)
+    submitted = [t["id"] for t in submission_order(smoke, priorities(tmp_path, smoke))]
+    assert sorted(submitted) == sorted(t["id"] for t in smoke)
+    for task in smoke:
+        assert all(submitted.index(n) < submitted.index(task["id"]) for n in task["needs"])
 
 
 def test_variants_are_a_dimension_of_the_grid():
@@ -356,6 +364,43 @@ kind = "evolve"
 shapes = ["worm"]
 seeds = [7]
 """
+
+
+TWO_EXPERIMENTS = """
+[defaults]
+generations = 2
+population = 4
+duration = 1.0
+validate_every = 2
+[experiments.first]
+kind = "evolve"
+shapes = ["worm"]
+seeds = [0, 1]
+[experiments.later]
+kind = "evolve"
+shapes = ["worm"]
+seeds = [0]
+"""
+
+
+def test_a_resumed_campaign_finishes_its_begun_run_before_it_starts_new_ones(tmp_path):
+    """On one worker, the run of the last experiment that had begun finishes before the
+    campaign's first runs start (Dask hands a task to an idle worker as it is submitted, so
+    priority alone would not do it)."""
+    spec = tmp_path / "two.toml"
+    spec.write_text(TWO_EXPERIMENTS)
+    out = tmp_path / "campaign"
+    for args in (["campaign", "run", str(spec)], ["campaign", "run", "--resume"]):
+        result = _run(*args, "--out", str(out), "--workers", "1", "--threads", "1", "--quiet")
+        assert result.returncode == 0, result.stderr
+        if args[-1] != "--resume":  # the later run begun, the first ones never started
+            for seed in (0, 1):
+                shutil.rmtree(out / "first" / f"worm-s{seed}")
+            (out / "later" / "worm-s0" / "done.json").unlink()
+    finished = {run: (out / run / "done.json").stat().st_mtime_ns
+                for run in ("first/worm-s0", "first/worm-s1", "later/worm-s0")}
+    assert sorted(finished, key=finished.get) == ["later/worm-s0", "first/worm-s0",
+                                                  "first/worm-s1"]
 
 
 def test_a_killed_worker_is_replaced_and_its_run_resumes(tmp_path):

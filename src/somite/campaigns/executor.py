@@ -163,7 +163,9 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
         outcome.dashboard = dashboard_link(client, cluster is not None)
         token = uuid.uuid4().hex[:8]  # a scheduler may hold another campaign's tasks
         priority = priorities(directory, tasks)
-        for task in tasks:
+        # Submitted in that order too: Dask hands a task to an idle worker as it arrives,
+        # before a later one of higher priority.
+        for task in submission_order(tasks, priority):
             needs = [futures[n] for n in task["needs"] if n in futures]
             futures[task["id"]] = client.submit(
                 run_task, str(directory), task, threads, *needs, key=f"{task['id']}@{token}",
@@ -204,6 +206,21 @@ def priorities(directory: Path, tasks: list[dict]) -> dict[str, int]:
     finishes the runs it has before it starts the new seeds, which come earlier in its order."""
     begun = sorted(tasks, key=lambda task: not (directory / task["path"]).is_dir())
     return {task["id"]: len(tasks) - rank for rank, task in enumerate(begun)}
+
+
+def submission_order(tasks: list[dict], priority: dict[str, int]) -> list[dict]:
+    """``tasks`` by ``priority``, highest first, each after the tasks it needs (their futures
+    must exist when it is submitted)."""
+    waiting = sorted(tasks, key=lambda task: -priority[task["id"]])
+    ids = {task["id"] for task in tasks}
+    done: set[str] = set()
+    order = []
+    while waiting:
+        task = next(t for t in waiting if all(n in done or n not in ids for n in t["needs"]))
+        waiting.remove(task)
+        done.add(task["id"])
+        order.append(task)
+    return order
 
 
 def _reason(future) -> str:

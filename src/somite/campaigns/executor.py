@@ -199,10 +199,10 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
 
 
 def priorities(directory: Path, tasks: list[dict]) -> dict[str, int]:
-    """Each unfinished task's Dask priority (higher starts first): the tasks already begun
-    (their folder exists), then the others, each in the campaign's order. Dask's own order is
-    not the campaign's. In the campaign's order, the runs of the first experiments finish first
-    and a killed campaign leaves few partial ones; begun ones first, a campaign grown by seeds
+    """Each unfinished task's Dask priority (higher starts first; Dask's own order is not the
+    campaign's): the tasks already begun (their folder exists), then the others, each group in
+    the campaign's order. In that order the runs of the first experiments finish first, so a
+    killed campaign leaves few partial ones; with begun ones first, a campaign grown by seeds
     finishes the runs it has before it starts the new seeds, which come earlier in its order."""
     begun = sorted(tasks, key=lambda task: not (directory / task["path"]).is_dir())
     return {task["id"]: len(tasks) - rank for rank, task in enumerate(begun)}

@@ -61,8 +61,9 @@ def _status(report: dict) -> list[str]:
 
 
 def _missing_figures(report: dict) -> list[str]:
-    """One line: the figures no experiment of the campaign feeds, and why (report.json's
-    ``figures.missing``; an experiment declares them in its ``figures`` table)."""
+    """A line for the figures no experiment of the campaign feeds, and why (report.json's
+    ``figures.missing``; an experiment declares them in its ``figures`` table), and one for
+    the sections left out, of the kinds no experiment has (their figures are not repeated)."""
     kinds = sections.shown(report)
     missing = {name: why for name, why in
                ((report.get("figures") or {}).get("missing") or {}).items()

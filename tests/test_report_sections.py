@@ -101,3 +101,20 @@ def test_a_campaign_of_evolve_experiments_alone_shows_no_empty_reassembly_sectio
            "their sections." in text
     assert "left empty: figure10: no evolve experiment declares it." in text
     assert "figure7" not in text.split("## Figure 3")[0]
+
+
+def test_figures_by_omega_of_one_group_point_to_figures_3_and_5():
+    """paper-rq1 has one omega: Figures 10 and 11 would draw Figure 3's and 5's runs again."""
+    report = smoke_report()
+    report["figures"]["fed"]["figure10"] = {"rq1": "omega 1 (neutral)"}
+    text = markdown.render_markdown(report)
+    by_omega = text.split("## Figure 10")[1].split("## Figure 5")[0]
+    assert "*One group only (rq1: omega 1 (neutral)), whose runs Figure 3 shows: nothing to " \
+           "compare by omega.*" in by_omega
+    assert "![" not in by_omega
+    final = text.split("## Figure 11")[1].split("\n## ")[0]
+    assert "whose runs Figure 5 shows" in final and "![" not in final and "| sample" not in final
+    assert "![Figure 3" in text and "![Figure 5" in text
+    # An experiment that feeds Figure 10 alone is still drawn there.
+    report["figures"]["fed"]["figure10"] = {"omega-10": "omega 10"}
+    assert "![Figure 10" in markdown.render_markdown(report)

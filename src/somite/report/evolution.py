@@ -276,14 +276,39 @@ def _render_curves(report: dict) -> list[str]:
     lines = []
     for key in ("figure3", "figure10"):
         title = TITLES[key]
-        lines += [f"## {title}", "",
-                  "Median ± sd across runs (line and band); dashed with dots: the median of the "
+        lines += [f"## {title}", ""]
+        same = _one_group_shown_before(report, key)
+        if same:
+            lines += same
+            continue
+        lines += ["Median ± sd across runs (line and band); dashed with dots: the median of the "
                   "logged validation v_x, where the runs measured it.", ""]
         lines += _under_way_note(report[key]["curves"])
         if key == "figure3":
             lines += _figure3_beside_paper(report["figure3"])
         lines += images(report[key]["files"], title)
     return lines
+
+
+FED_BY = {"figure10": "figure10", "figure11": "figure10"}
+"""The declaration that feeds a figure drawn by omega (Figure 11 is Figure 10's runs' final v_x)."""
+SHOWN_BEFORE = {"figure10": "figure3", "figure11": "figure5"}
+"""The figure that already shows the runs of a figure by omega when only one group feeds it."""
+
+
+def _one_group_shown_before(report: dict, key: str) -> list[str]:
+    """For Figure 10 or 11 fed by one experiment that also feeds Figure 3 or 5 (paper-rq1's
+    rq1): the line that says so, instead of that figure again; else nothing."""
+    if key not in FED_BY:
+        return []
+    fed = (report.get("figures") or {}).get("fed") or {}
+    mine = fed.get(FED_BY[key], {})
+    before = SHOWN_BEFORE[key]
+    if len(mine) != 1 or not set(mine) <= set(fed.get(before, {})):
+        return []
+    (experiment, label), = mine.items()
+    return [f"*One group only ({experiment}: {label}), whose runs {TITLES[before].split(':')[0]} "
+            "shows: nothing to compare by omega.*", ""]
 
 
 def _under_way_note(found: dict) -> list[str]:
@@ -337,6 +362,10 @@ def _render_boxes(report: dict) -> list[str]:
         title = TITLES[key]
         data = report[key]
         lines += [f"## {title}", "", claim(data["paper"]), ""]
+        same = _one_group_shown_before(report, key)
+        if same:
+            lines += same
+            continue
         rows, tests = [], []
         for shape, c in data["comparison"].items():
             for group, logged in c["logged"]["groups"].items():

@@ -107,9 +107,10 @@ def under_way(report: dict) -> dict:
                          + (f" of {r['generations']}" if r.get("generations") else "")
                          for task, r in found.items())
         out["caveat"] = (
-            f"interim report: {_count(len(found), 'run')} still under way ({runs}) "
-            "drawn in the curves of Figures 3 and 10 to their last logged generation; every "
-            "table, test and final figure holds the finished runs only")
+            f"interim report: {_count(len(found), 'run')} still under way ({runs}), drawn to "
+            "their last logged generation in the curves of Figures 3 and 10 where their "
+            "experiment feeds them, and in the time-lapses; every table, test and final figure "
+            "holds the finished runs only")
     return out
 
 

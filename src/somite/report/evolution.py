@@ -290,8 +290,6 @@ def _render_curves(report: dict) -> list[str]:
     return lines
 
 
-FED_BY = {"figure10": "figure10", "figure11": "figure10"}
-"""The declaration that feeds a figure drawn by omega (Figure 11 is Figure 10's runs' final v_x)."""
 SHOWN_BEFORE = {"figure10": "figure3", "figure11": "figure5"}
 """The figure that already shows the runs of a figure by omega when only one group feeds it."""
 
@@ -299,10 +297,10 @@ SHOWN_BEFORE = {"figure10": "figure3", "figure11": "figure5"}
 def _one_group_shown_before(report: dict, key: str) -> list[str]:
     """For Figure 10 or 11 fed by one experiment that also feeds Figure 3 or 5 (paper-rq1's
     rq1): the line that says so, instead of that figure again; else nothing."""
-    if key not in FED_BY:
+    if key not in SHOWN_BEFORE:
         return []
     fed = (report.get("figures") or {}).get("fed") or {}
-    mine = fed.get(FED_BY[key], {})
+    mine = fed.get("figure10", {})  # Figure 11 draws the final v_x of Figure 10's runs
     before = SHOWN_BEFORE[key]
     if len(mine) != 1 or not set(mine) <= set(fed.get(before, {})):
         return []

@@ -121,6 +121,8 @@ def test_status_shows_every_cell_at_80_columns(tmp_path, capsys, monkeypatch, na
     assert expected[LONGEST][3:] == ["1.500", "0.750"]
     assert expected["rq2-homo/worm-s0+s1"] == ["reassemble", "done", "-", "-", "0.250"]
     assert f"{len(expected) - 4} queued" in out
+    # The unit whole on its own line, however narrow the table (it once wrapped mid-phrase).
+    assert "v_x in m/s" in [line.strip() for line in out.splitlines()]
 
 
 def test_status_keeps_whole_ids_where_they_fit(tmp_path, capsys, monkeypatch):
@@ -171,3 +173,21 @@ def test_status_shows_the_last_validation_the_log_measured(tmp_path):
         assert all(float(r["best_velocity"]) == 0.01 * int(r["generation"]) for r in tail)
     _log(tmp_path / "fresh", rows[1:3])
     assert progress(tmp_path / "fresh", {}, False)["validation"] is None
+
+
+def test_status_and_origin_read_the_same_last_validation(tmp_path):
+    """One reader of a log's last validation: the status shows a NaN as measured (the latest
+    best's episode went non-finite), and a module's reference speed is then unknown rather
+    than an earlier best's."""
+    import math
+
+    from somite.campaigns.kinds.evolve import progress
+    from somite.experiments.origin import _last_validation
+
+    rows = [(0, 0.1, 0.2), (50, 0.3, 0.4), (51, 0.3, None)]
+    _log(tmp_path / "run", rows)
+    assert progress(tmp_path / "run", {}, False)["validation"] == 0.4
+    assert _last_validation(tmp_path / "run") == 0.4
+    _log(tmp_path / "run", [*rows, (100, 0.5, float("nan")), (101, 0.5, None)])
+    assert math.isnan(progress(tmp_path / "run", {}, False)["validation"])
+    assert _last_validation(tmp_path / "run") is None

@@ -285,7 +285,8 @@ def _table(directory: Path, doc: dict, infos: list[dict], compact: bool = False)
     from rich.table import Table
 
     # Compact, the first column starts flush left: the longest names need that character.
-    grid = Table(title=f"campaign {doc.get('name')} in {directory} (v_x in m/s)",
+    # The unit on a line of its own: appended, it wrapped mid-phrase on a narrow table.
+    grid = Table(title=f"campaign {doc.get('name')} in {directory}\nv_x in m/s",
                  **_style(compact), pad_edge=not compact)
     for name in ("task", "kind", "state", "generation", "best v_x", "validation v_x"):
         grid.add_column(name.replace(" ", "\n") if compact else name,

@@ -36,3 +36,19 @@ def format_cell(value) -> str:
 def format_row(row: dict) -> str:
     """A log row as one CSV line (no newline), the columns in :data:`LOG_COLUMNS` order."""
     return ",".join(format_cell(row[c]) for c in LOG_COLUMNS)
+
+
+def last_validation(rows) -> float | None:
+    """The validation v_x of the last of ``rows`` (a log's rows, as csv.DictReader gives them)
+    that measured one (a run validates every few generations); None if none did. A NaN is
+    returned as such: it is the validation of the latest best, and an earlier number would be
+    another genome's."""
+    for row in reversed(rows):
+        cell = (row or {}).get("validation_velocity")
+        if cell not in (None, ""):
+            try:
+                return float(cell)
+            except (TypeError, ValueError):
+                continue
+    return None
+

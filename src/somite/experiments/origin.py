@@ -23,6 +23,7 @@ from pathlib import Path
 from .._io import read_json
 from ..errors import SomiteError
 from ..tasks.distributions import parse_distribution
+from .logfile import last_validation
 
 
 @dataclass(frozen=True)
@@ -132,7 +133,8 @@ def shared_origin(paths) -> Origin:
 
 
 def _last_validation(folder: Path) -> float | None:
-    """The last validation velocity in the run's log.csv (None without one)."""
+    """The last validation velocity in the run's whole log.csv (None without one, or when the
+    last one is not finite: the latest best's reference speed is then unknown)."""
     log = folder / "log.csv"
     if not log.is_file():
         return None
@@ -140,11 +142,8 @@ def _last_validation(folder: Path) -> float | None:
         rows = list(csv.DictReader(io.StringIO(log.read_text(errors="replace"))))
     except (OSError, csv.Error):
         return None
-    for row in reversed(rows):
-        value = _number((row or {}).get("validation_velocity"))
-        if value is not None and math.isfinite(value):
-            return value
-    return None
+    value = last_validation(rows)
+    return value if value is not None and math.isfinite(value) else None
 
 
 def _number(value) -> float | None:

@@ -9,6 +9,7 @@ from ...analysis.stats import load_run
 from ...brain.genome import Genome
 from ...errors import SomiteError, bad
 from ...experiments.history import read_history
+from ...experiments.logfile import last_validation
 from ...sim.body import Shape
 from ...sim.config import CONTROL_HZ
 from ...tasks.validation import VALIDATION_COUNT
@@ -135,11 +136,9 @@ def progress(folder: Path, options: dict, done: bool) -> dict:
     rows = log_tail(folder / "log.csv", TAIL_BYTES)
     if not rows:
         return {}
-    validated = [v for v in (number(row["validation_velocity"]) for row in rows)
-                 if v is not None]
     return {"generation": int(rows[-1]["generation"]),
             "best": number(rows[-1]["best_velocity"]),
-            "validation": validated[-1] if validated else None}
+            "validation": last_validation(rows)}
 
 
 def run_steps(options: dict, generations: int | None = None) -> int:

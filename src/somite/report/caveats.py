@@ -109,8 +109,8 @@ def under_way(report: dict) -> dict:
         out["caveat"] = (
             f"interim report: {_count(len(found), 'run')} still under way ({runs}), drawn to "
             "their last logged generation in the curves of Figures 3 and 10 where their "
-            "experiment feeds them, and in the time-lapses; every table, test and final figure "
-            "holds the finished runs only")
+            "experiment feeds them, in the time-lapses and in Figure 5's table at the same "
+            "budget; every other table, test and final figure holds the finished runs only")
     return out
 
 

@@ -173,6 +173,36 @@ def final_comparison(found: Groups, reruns: dict[str, dict]) -> dict:
     return out
 
 
+def matched(found: Groups, under_way: dict[str, RunLog]) -> dict:
+    """Figure 5 so far, while some of its runs are under way: per shape with runs in two groups
+    or more, one of them under way, the last generation at which every run of the shape logged
+    a validation, and per group the median logged best v_x and validation v_x there. The runs
+    are compared at the same budget; nothing is tested (the final comparison does that)."""
+    out = {}
+    for shape, labelled in found.items():
+        runs = {i: run for group in labelled.values() for i, run in group.items()}
+        if len(labelled) < 2 or not set(runs) & set(under_way):
+            continue
+        measured = [set(run.log["generation"][np.isfinite(run.log["validation_velocity"])]
+                        .astype(int).tolist()) for run in runs.values()]
+        common = set.intersection(*measured)
+        if not common:
+            continue
+        generation = max(common)
+        out[shape] = {"generation": generation, "groups": {}}
+        for label, group in labelled.items():
+            at = [np.flatnonzero(run.log["generation"] == generation)[0] for run in group.values()]
+            out[shape]["groups"][label] = {
+                "runs": list(group),
+                "under_way": [i for i in group if i in under_way],
+                "logged": float(np.median([run.log["best_velocity"][k]
+                                           for run, k in zip(group.values(), at)])),
+                "validation": float(np.median([run.log["validation_velocity"][k]
+                                               for run, k in zip(group.values(), at)])),
+            }
+    return out
+
+
 def one_sided(comparison: dict, a: str, b: str) -> dict | None:
     """The paper's test of Figure 5: one-sided Mann-Whitney U, H1 'group ``a`` is faster than
     group ``b``' (section 5.1.1); None when a group is missing or empty."""
@@ -203,6 +233,9 @@ def build(inputs: Inputs) -> dict:
         out[key] = _boxes(inputs, key, groups(campaign, loaded, members))
     out["figure3"]["paper"] = paper.figure3()
     out["figure5"]["paper"] = paper.ABLATION.to_dict()
+    if loaded.under_way:
+        found = groups(campaign, loaded, campaign.fed("figure5"), under_way=True)
+        out["figure5"]["matched"] = matched(found, loaded.under_way)
     # The paper's test asks whether the first experiment (topology + weights) is the faster.
     labels = list(campaign.fed("figure5").values())
     out["figure5"]["one_sided"] = {
@@ -375,6 +408,7 @@ def _render_boxes(report: dict) -> list[str]:
         lines += table(["shape", "group", "runs", "logged v_x", "v_x on validation terrains"],
                        rows)
         lines += tests_table(tests)
+        lines += _matched_table(data.get("matched") or {})
         paper_tests = [[f"{shape}, {which}", f"{t['a']} > {t['b']}", number(t["u"], 1),
                         p_noted(t)]
                        for shape, found in data.get("one_sided", {}).items()
@@ -387,8 +421,22 @@ def _render_boxes(report: dict) -> list[str]:
     return lines
 
 
+def _matched_table(found: dict) -> list[str]:
+    """Figure 5 so far (an interim report): the groups at the same generation."""
+    rows = [[shape, number(m["generation"], 0), group, len(g["runs"]),
+             ", ".join(g["under_way"]) or "none", number(g["logged"]), number(g["validation"])]
+            for shape, m in found.items() for group, g in m["groups"].items()]
+    if not rows:
+        return []
+    return ["So far, at the same budget: each shape's groups at the last generation every one "
+            "of its runs has validated (medians across runs; runs under way included, "
+            "nothing tested):", ""] + table(
+        ["shape", "generation", "group", "runs", "under way", "logged v_x",
+         "v_x on validation terrains"], rows)
+
+
 SECTION = Section(build, render)
 """The evolve experiments' part of the report."""
 
 __all__ = ["SECTION", "TITLES", "build", "compare", "curves", "final_comparison", "groups",
-           "one_sided", "render", "shape_order", "table1", "task_shape"]
+           "matched", "one_sided", "render", "shape_order", "table1", "task_shape"]

@@ -87,6 +87,7 @@ from somite._io import parse_json, read_text
 from somite.brain.genome import Genome
 from somite.errors import SomiteError, bad
 from somite.experiments.config import RunConfig, resolve
+from somite.experiments.history import THINNED
 from somite.sim.body import Body
 from somite.sim.config import SimConfig, preset
 from somite.sim.terrain import Terrain, parse_terrain
@@ -149,10 +150,19 @@ def _generation(entry, path: Path, i: int) -> int:
 
 
 def read_bests(path: Path) -> list[dict]:
-    """The lines of a run's ``bests.jsonl``, in generation order (one per generation)."""
+    """The lines of a run's ``bests.jsonl`` that hold a genome, in generation order (one per
+    generation): a line thinned by ``somite campaign pack`` (a best every few generations and
+    the last ones kept) holds none, and its generation cannot be sampled."""
     entries, seen = [], set()
     for i, line in enumerate(read_text(path, "run").splitlines()):
         if not line.strip():
+            continue
+        thinned = THINNED.fullmatch(line)
+        if thinned:
+            g = int(thinned[1])
+            if g in seen:
+                raise bad("run", str(path.parent), f"bests.jsonl has generation {g} twice")
+            seen.add(g)
             continue
         entry = parse_json(line, "run", f"{path} line {i + 1}")
         g = _generation(entry, path, i)
@@ -161,7 +171,8 @@ def read_bests(path: Path) -> list[dict]:
         seen.add(g)
         entries.append(entry)
     if not entries:
-        raise bad("run", str(path.parent), "bests.jsonl is empty (no generation finished)")
+        raise bad("run", str(path.parent), "bests.jsonl is empty (no generation finished)"
+                  if not seen else "bests.jsonl has no genome (every line thinned)")
     return sorted(entries, key=lambda e: e["generation"])
 
 

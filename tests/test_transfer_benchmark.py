@@ -192,6 +192,31 @@ def error_line(capsys, *argv: str) -> str:
     return err.removeprefix("transfer.py: error: ")
 
 
+def test_a_packed_runs_thinned_bests_are_not_sampled(runs, tmp_path):
+    """A run unpacked from ``somite campaign pack`` keeps a best every few generations: the
+    thinned lines are skipped, the kept ones sampled (paper-rq1's ablation runs, carried in
+    from a pack, were refused before)."""
+    import shutil
+
+    from somite.experiments.history import line_digest, thinned_line
+
+    packed = tmp_path / "packed"
+    shutil.copytree(runs / "worm", packed)
+    lines = (packed / "bests.jsonl").read_text().splitlines()
+    thin = [thinned_line(g, line_digest("bests", line)) if g in (1, 2, 3) else line
+            for g, line in enumerate(lines)]
+    (packed / "bests.jsonl").write_text("\n".join(thin) + "\n")
+    run = transfer.load_run(str(packed), 3)
+    assert [e["generation"] for e in run.entries] == [0, 4] and run.last == 4
+    assert run.entries[1]["data"] == json.loads(lines[4])["genome"]
+    (packed / "bests.jsonl").write_text("\n".join([*thin, thin[2]]) + "\n")
+    with pytest.raises(SomiteError, match="generation 2 twice"):
+        transfer.load_run(str(packed), 3)
+    (packed / "bests.jsonl").write_text(thin[1] + "\n")
+    with pytest.raises(SomiteError, match=r"every line thinned"):
+        transfer.load_run(str(packed), 3)
+
+
 def test_bad_run_directories(runs, tmp_path, capsys):
     vsr = ("--vsr", str(tmp_path))
     assert error_line(capsys, str(tmp_path / "none"), *vsr).startswith("run=")

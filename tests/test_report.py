@@ -377,18 +377,9 @@ def test_an_interim_report_draws_the_runs_under_way_in_the_curves_only(campaign,
     assert data["table1"] == report[1]["table1"]
     matched = data["figure5"].pop("matched")
     assert data["figure5"] == report[1]["figure5"] and "matched" not in report[1]["figure5"]
-    # Figure 5 so far: the worm's two groups at the last generation all seven runs validated
-    # (the run under way's last, 1), read from their logs; the biped has no run under way.
-    assert set(matched) == {"worm"} and matched["worm"]["generation"] == 1
-    for experiment, label in (("rq1", "topology + weights"), ("ablation", "weights only")):
-        folders = [*_finished(campaign, experiment, "worm"),
-                   *([copy / UNFINISHED[0]] if experiment == "rq1" else [])]
-        rows = [next(r for r in _log(f) if r["generation"] == "1") for f in folders]
-        group = matched["worm"]["groups"][label]
-        assert group["runs"] == [f"{experiment}/{f.name}" for f in folders]
-        assert group["under_way"] == ([UNFINISHED[0]] if experiment == "rq1" else [])
-        for key, column in (("logged", "best_velocity"), ("validation", "validation_velocity")):
-            assert group[key] == float(np.median([float(r[column]) for r in rows]))
+    # Figure 5 so far adds nothing: the run under way is behind finished runs of its group,
+    # and both groups are compared at generation 2, where only finished runs are.
+    assert matched == {}
     assert data["timelapse"] == report[1]["timelapse"]
     assert UNFINISHED[0] not in {r["task"] for r in data["validation"]["robots"]}
     assert data["caveats"]["under_way"]["tasks"] == [UNFINISHED[0]]
@@ -396,7 +387,7 @@ def test_an_interim_report_draws_the_runs_under_way_in_the_curves_only(campaign,
     assert text.count("**Warning:** interim report: 1 run still under way "
                       f"({UNFINISHED[0]} at generation 1 of 2)") == 1
     assert f"{UNFINISHED[0]} (generation 1)" in text
-    assert f"| worm | 1 | topology + weights | 4 | {UNFINISHED[0]} |" in text
+    assert "So far, at the same budget" not in text
     assert f"### Under way: {UNFINISHED[0]}, its best at generation 1" in text
     assert f"Gait: {strip['gait']}." in text
     assert "interim report" in capsys.readouterr().err

@@ -118,3 +118,57 @@ def test_figures_by_omega_of_one_group_point_to_figures_3_and_5():
     # An experiment that feeds Figure 10 alone is still drawn there.
     report["figures"]["fed"]["figure10"] = {"omega-10": "omega 10"}
     assert "![Figure 10" in markdown.render_markdown(report)
+
+
+def _run(last: int, velocity: float, every: int = 50):
+    """A run's log to generation ``last``: best v_x ``velocity`` + g/1000, its validation
+    (every ``every`` generations) half of that."""
+    import numpy as np
+
+    from somite.analysis.stats import RunLog
+
+    generation = np.arange(last + 1, dtype=float)
+    best = velocity + generation / 1000
+    validation = np.where(generation % every == 0, best / 2, np.nan)
+    return RunLog(Path("."), {}, {"generation": generation, "best_velocity": best,
+                                  "validation_velocity": validation})
+
+
+def test_figure5_so_far_compares_the_groups_at_the_same_budget():
+    """An interim report's Figure 5 compares each shape's groups at the furthest generation
+    every group has validated (paper-rq1: the graph worm finished, the weights-only worm at
+    2109, validated at 2100), with the runs that reached it; a shape whose compared runs have
+    all finished is left out (the final table shows them)."""
+    from somite.report.evolution import matched
+
+    found = {
+        "worm": {"graph": {"rq1/worm-s0": _run(3000, 1.0), "rq1/worm-s1": _run(40, 0.5)},
+                 "weights": {"ablation/worm-s0": _run(2109, 2.0)}},
+        "biped": {"graph": {"rq1/biped-s0": _run(3000, 3.0), "rq1/biped-s1": _run(66, 0.1)},
+                  "weights": {"ablation/biped-s0": _run(3000, 1.0)}},
+    }
+    under_way = {i: found[s][g][i] for s, g, i in (
+        ("worm", "graph", "rq1/worm-s1"), ("worm", "weights", "ablation/worm-s0"),
+        ("biped", "graph", "rq1/biped-s1"))}
+    out = matched(found, under_way)
+    assert list(out) == ["worm"] and out["worm"]["generation"] == 2100
+    assert out["worm"]["groups"] == {
+        "graph": {"runs": ["rq1/worm-s0"], "under_way": [], "logged": 1.0 + 2.1,
+                  "validation": (1.0 + 2.1) / 2},
+        "weights": {"runs": ["ablation/worm-s0"], "under_way": ["ablation/worm-s0"],
+                    "logged": 2.0 + 2.1, "validation": (2.0 + 2.1) / 2}}
+    # Both worm graph runs past 2100: the median of the two.
+    found["worm"]["graph"]["rq1/worm-s1"] = _run(2500, 0.5)
+    assert matched(found, under_way)["worm"]["groups"]["graph"]["logged"] == 0.75 + 2.1
+    # A group validated at generation 0 alone, or one group alone: nothing to compare.
+    found["worm"]["weights"] = {"ablation/worm-s0": _run(40, 2.0)}
+    assert matched(found, under_way) == {}
+    del found["worm"]["weights"]
+    assert matched(found, under_way) == {}
+    # Rendered under Figure 5's table, naming the run under way.
+    report = smoke_report()
+    found["worm"]["weights"] = {"ablation/worm-s0": _run(2109, 2.0)}
+    report["figure5"]["matched"] = matched(found, under_way)
+    text = markdown.render_markdown(report).split("## Figure 5")[1].split("\n## ")[0]
+    assert "| worm | 2100 | weights | 1 | ablation/worm-s0 | 4.100 | 2.050 |" in text
+    assert "| worm | 2100 | graph | 2 | rq1/worm-s1 | 2.850 | 1.425 |" in text

@@ -174,33 +174,44 @@ def final_comparison(found: Groups, reruns: dict[str, dict]) -> dict:
 
 
 def matched(found: Groups, under_way: dict[str, RunLog]) -> dict:
-    """Figure 5 so far, while some of its runs are under way: per shape with runs in two groups
-    or more, one of them under way, the last generation at which every run of the shape logged
-    a validation, and per group the median logged best v_x and validation v_x there. The runs
-    are compared at the same budget; nothing is tested (the final comparison does that)."""
+    """Figure 5 so far, while some of its runs are under way: per shape with two groups or
+    more, the furthest generation every group has reached (the least, over the groups, of the
+    last generation any of its runs validated), and per group the median logged best v_x and
+    validation v_x there of the runs that validated at it. The groups are compared at the same
+    budget; nothing is tested (the final comparison does that). A shape is left out where that
+    generation is 0 (no evolution yet) or its compared runs have all finished (the final
+    comparison shows them)."""
     out = {}
     for shape, labelled in found.items():
-        runs = {i: run for group in labelled.values() for i, run in group.items()}
-        if len(labelled) < 2 or not set(runs) & set(under_way):
+        if len(labelled) < 2:
             continue
-        measured = [set(run.log["generation"][np.isfinite(run.log["validation_velocity"])]
-                        .astype(int).tolist()) for run in runs.values()]
-        common = set.intersection(*measured)
-        if not common:
+        validated = {i: _validated(run) for group in labelled.values() for i, run in group.items()}
+        furthest = [max((max(validated[i], default=-1) for i in group), default=-1)
+                    for group in labelled.values()]
+        generation = min(furthest)
+        at = {label: {i: validated[i][generation] for i in group if generation in validated[i]}
+              for label, group in labelled.items()}
+        compared = {i for rows in at.values() for i in rows}
+        if generation < 1 or not all(at.values()) or not compared & set(under_way):
             continue
-        generation = max(common)
         out[shape] = {"generation": generation, "groups": {}}
-        for label, group in labelled.items():
-            at = [np.flatnonzero(run.log["generation"] == generation)[0] for run in group.values()]
+        for label, rows in at.items():
+            group = labelled[label]
             out[shape]["groups"][label] = {
-                "runs": list(group),
-                "under_way": [i for i in group if i in under_way],
-                "logged": float(np.median([run.log["best_velocity"][k]
-                                           for run, k in zip(group.values(), at)])),
-                "validation": float(np.median([run.log["validation_velocity"][k]
-                                               for run, k in zip(group.values(), at)])),
+                "runs": list(rows),
+                "under_way": [i for i in rows if i in under_way],
+                "logged": float(np.median([group[i].log["best_velocity"][k]
+                                           for i, k in rows.items()])),
+                "validation": float(np.median([group[i].log["validation_velocity"][k]
+                                               for i, k in rows.items()])),
             }
     return out
+
+
+def _validated(run: RunLog) -> dict[int, int]:
+    """The generations at which ``run`` logged a validation v_x -> their row in its log."""
+    rows = np.flatnonzero(np.isfinite(run.log["validation_velocity"]))
+    return {int(run.log["generation"][k]): int(k) for k in rows}
 
 
 def one_sided(comparison: dict, a: str, b: str) -> dict | None:
@@ -428,9 +439,9 @@ def _matched_table(found: dict) -> list[str]:
             for shape, m in found.items() for group, g in m["groups"].items()]
     if not rows:
         return []
-    return ["So far, at the same budget: each shape's groups at the last generation every one "
-            "of its runs has validated (medians across runs; runs under way included, "
-            "nothing tested):", ""] + table(
+    return ["So far, at the same budget: each shape's groups at the furthest generation all of "
+            "them have validated, medians across the runs that reached it, runs under way "
+            "among them (nothing tested):", ""] + table(
         ["shape", "generation", "group", "runs", "under way", "logged v_x",
          "v_x on validation terrains"], rows)
 

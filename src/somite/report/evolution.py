@@ -419,7 +419,6 @@ def _render_boxes(report: dict) -> list[str]:
         lines += table(["shape", "group", "runs", "logged v_x", "v_x on validation terrains"],
                        rows)
         lines += tests_table(tests)
-        lines += _matched_table(data.get("matched") or {})
         paper_tests = [[f"{shape}, {which}", f"{t['a']} > {t['b']}", number(t["u"], 1),
                         p_noted(t)]
                        for shape, found in data.get("one_sided", {}).items()
@@ -427,6 +426,7 @@ def _render_boxes(report: dict) -> list[str]:
         if paper_tests:
             lines += ["The paper's own test, one-sided:", ""]
             lines += table(["sample", "alternative", "U", "p (one-sided)"], paper_tests)
+        lines += _matched_table(data.get("matched") or {})
         lines += images(data["files"]["logged"], title + " (logged)")
         lines += images(data["files"]["validation"], title + " (validation)")
     return lines

@@ -158,18 +158,13 @@ def read_bests(path: Path) -> list[dict]:
         if not line.strip():
             continue
         thinned = THINNED.fullmatch(line)
-        if thinned:
-            g = int(thinned[1])
-            if g in seen:
-                raise bad("run", str(path.parent), f"bests.jsonl has generation {g} twice")
-            seen.add(g)
-            continue
-        entry = parse_json(line, "run", f"{path} line {i + 1}")
-        g = _generation(entry, path, i)
+        entry = None if thinned else parse_json(line, "run", f"{path} line {i + 1}")
+        g = int(thinned[1]) if thinned else _generation(entry, path, i)
         if g in seen:
             raise bad("run", str(path.parent), f"bests.jsonl has generation {g} twice")
         seen.add(g)
-        entries.append(entry)
+        if entry is not None:
+            entries.append(entry)
     if not entries:
         raise bad("run", str(path.parent), "bests.jsonl is empty (no generation finished)"
                   if not seen else "bests.jsonl has no genome (every line thinned)")

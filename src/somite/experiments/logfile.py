@@ -44,11 +44,11 @@ def last_validation(rows) -> float | None:
     returned as such: it is the validation of the latest best, and an earlier number would be
     another genome's."""
     for row in reversed(rows):
-        cell = (row or {}).get("validation_velocity")
-        if cell not in (None, ""):
+        cell = row.get("validation_velocity")
+        if cell:
             try:
                 return float(cell)
-            except (TypeError, ValueError):
+            except ValueError:
                 continue
     return None
 

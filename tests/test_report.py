@@ -387,6 +387,8 @@ def test_an_interim_report_draws_the_runs_under_way_in_the_curves_only(campaign,
     assert text.count("**Warning:** interim report: 1 run still under way "
                       f"({UNFINISHED[0]} at generation 1 of 2)") == 1
     assert f"{UNFINISHED[0]} (generation 1)" in text
+    runs = len(worm["runs"])
+    assert f"| worm | omega 1 | {runs} ({runs - 1} at the last) | 2 |" in text
     assert "So far, at the same budget" not in text
     assert f"### Under way: {UNFINISHED[0]}, its best at generation 1" in text
     assert f"Gait: {strip['gait']}." in text

@@ -366,6 +366,15 @@ def _under_way_note(found: dict) -> list[str]:
             ""]
 
 
+def _runs_at_the_last(c: dict) -> str:
+    """How many runs the curve holds, and, where runs under way stop short of its last
+    generation, how many reach it (the last medians are theirs alone)."""
+    last = c["generation"][-1]
+    short = sum(g < last for g in c.get("under_way", {}).values())
+    return f"{len(c['runs'])} ({len(c['runs']) - short} at the last)" if short else str(
+        len(c["runs"]))
+
+
 def _figure3_beside_paper(data: dict) -> list[str]:
     """Figure 3's curves at their two ends, median across runs, beside what the paper says
     (v_x from section 5.1, |G| from Table 1)."""
@@ -378,7 +387,7 @@ def _figure3_beside_paper(data: dict) -> list[str]:
             last_validation = (f"{number(c['validation_median'][-1])} (generation "
                                f"{number(c['validation_generation'][-1], 0)})"
                                if c["validation_median"] else "n/a")
-            rows.append([shape, group, len(c["runs"]), number(c["generation"][-1], 0),
+            rows.append([shape, group, _runs_at_the_last(c), number(c["generation"][-1], 0),
                          number(c["velocity_median"][0]), number(c["velocity_median"][-1]),
                          last_validation, number(c["size_median"][0], 1),
                          number(c["size_median"][-1], 1)])

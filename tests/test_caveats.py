@@ -228,7 +228,7 @@ def report(tmp_path, capsys, seeds, **options):
     out = tmp_path / "report"
     write_cache(out / "cache" / "validation.json", entries)
     assert main(["report", str(campaign), "--out", str(out), "--validation", "2",
-                 "--no-timelapse", "--quiet"]) == 0
+                 "--fresh", "0", "--no-timelapse", "--quiet"]) == 0
     data = json.loads((out / "report.json").read_text())
     assert data["cache"]["genomes_simulated"] == 0
     return capsys.readouterr().err, (out / "index.md").read_text(), data

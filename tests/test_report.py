@@ -13,7 +13,13 @@ import numpy as np
 import pytest
 from scipy.stats import mannwhitneyu
 
+from somite.analysis.stats import load_run
+from somite.brain.genome import Genome
 from somite.cli import main
+from somite.experiments.config import resolve
+from somite.report.rerun import FRESH_COUNT, fresh_terrains
+from somite.tasks.validation import evaluate
+from somite.tasks.velocity import mean_velocity
 
 from .campaign_fixture import UNFINISHED, build_campaign
 from .test_report_sections import skeleton, smoke_report
@@ -225,6 +231,58 @@ def test_a_second_report_simulates_nothing_and_says_the_same(campaign, report):
     fourth = json.loads((out / "report.json").read_text())
     assert fourth["cache"] == {"genomes_simulated": 0, "strips_drawn": 1}
     assert fourth["timelapse"] == first["timelapse"]
+
+
+def test_every_final_best_is_re_run_on_fresh_terrains_under_fresh_noise(campaign, report):
+    """Beside the validation re-run, each final best's v_x on the fresh terrains (neither
+    training nor validation terrains) at noise seed 1: the numbers of ``evaluate`` there."""
+    out, data = report
+    robots = data["validation"]["robots"]
+    names = [t.name for t in fresh_terrains(FRESH_COUNT)]
+    assert names[0] == "hilly-1-10-20000" and len(names) == FRESH_COUNT == 20
+    assert robots and all(r["fresh_terrains"] == names for r in robots)
+    assert not set(names) & set(robots[0]["terrains"])
+    robot = robots[0]
+    folder = campaign / robot["task"]
+    sim = resolve(load_run(folder).config).setup.sim
+    velocities = evaluate([Genome.load(folder / "best.json")], fresh_terrains(20), sim, seed=1)
+    assert robot["fresh_velocities"] == velocities[0].tolist()
+    assert robot["fresh"] == mean_velocity(velocities[0]) and robot["fresh_noise_seed"] == 1
+    # not the validation episodes under another name: other terrains, other noise
+    assert robot["fresh_velocities"][:10] != robot["velocities"]
+    group = next(g for g in data["validation"]["summary"]
+                 if (g["experiment"], g["shape"]) == (robot["experiment"], robot["shape"]))
+    members = [r["fresh"] for r in robots
+               if (r["experiment"], r["shape"]) == (robot["experiment"], robot["shape"])]
+    assert group["fresh"]["median"] == float(np.median(members))
+    text = (out / "index.md").read_text()
+    assert "And on 20 fresh terrains (hilly-1-10-20000 on" in text
+    assert (f"| {robot['task']} | {robot['logged']:.3f} | {robot['validation']:.3f} | "
+            f"{robot['logged_validation']:.3f} | {robot['fresh']:.3f} |") in text
+
+
+def test_fresh_0_re_runs_on_no_fresh_terrain_and_a_bad_count_is_named(campaign, tmp_path,
+                                                                     capsys):
+    out = tmp_path / "report"
+    assert main(["report", str(campaign), "--out", str(out), "--fresh", "0",
+                 "--no-timelapse", "--quiet"]) == 0
+    data = json.loads((out / "report.json").read_text())
+    assert not any("fresh" in r for r in data["validation"]["robots"])
+    assert not (out / "cache" / "fresh.json").exists()
+    assert "fresh terrains" not in (out / "index.md").read_text()
+    capsys.readouterr()
+    for count, why in (("-1", "fresh=-1: must be a whole number (0: no fresh terrains)"),
+                       ("1001", "fresh=1001: must be at most 1000"),
+                       ("x", "fresh='x': must be an integer")):
+        args = ["report", str(campaign), "--out", str(tmp_path / "r"), "--fresh", count]
+        try:
+            code = main(args)
+        except SystemExit as stop:  # argparse's own: a count that is no integer
+            code = stop.code
+        assert code == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and why in err, err
+        assert not (tmp_path / "r").exists()
 
 
 def test_a_finished_task_that_cannot_be_read_is_shown_as_missing(campaign, tmp_path, capsys):

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import argparse
 
+from ..report.rerun import FRESH_COUNT
 from ._progress import stages
-from .common import add_options, warn
+from .common import add_options, warn, whole_int
 
 HELP = ("Report a campaign directory: the paper's Table 1 and Figures 3, 5, 7-12 beside the "
         "paper's numbers, validation re-runs, time-lapses (index.md, report.json, figures/).")
@@ -16,6 +17,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="report folder")
     add_options(parser, "validation", notes={
         "validation": "every final best is re-run on them (cached in the report folder)"})
+    parser.add_argument("--fresh", type=whole_int("fresh"), default=FRESH_COUNT, metavar="N",
+                        help="also re-run every final best on N fresh terrains (neither "
+                        "training nor validation ones) under fresh sensor noise (cached in the "
+                        f"report folder; 0: none) (default {FRESH_COUNT})")
     parser.add_argument("--no-timelapse", action="store_true",
                         help="draw no time-lapse strips")
     parser.add_argument("--under-way", action="store_true",
@@ -31,14 +36,14 @@ def run(args: argparse.Namespace) -> int:
     with stages(args.quiet) as stage:
         report = build_report(args.campaign, args.out, args.validation,
                               timelapse=not args.no_timelapse, stage=stage,
-                              under_way=args.under_way)
+                              under_way=args.under_way, fresh=args.fresh)
     if not args.quiet:
         status = report["status"]["experiments"]
         done = sum(s["done"] for s in status.values())
         total = sum(s["tasks"] for s in status.values())
         cache = report["cache"]
         print(f"wrote {args.out}/index.md and report.json: {done} of {total} tasks finished; "
-              f"{cache['genomes_simulated']} bests re-run on the validation terrains, "
+              f"{cache['genomes_simulated']} bests re-run on the validation or fresh terrains, "
               f"{cache['strips_drawn']} time-lapses drawn (the rest from the cache)")
         missing = report["figures"]["missing"]
         if missing:

@@ -1,11 +1,12 @@
 """``somite report``: a campaign directory in, a report folder out.
 
 REPORT holds ``index.md`` (and ``index.html``), ``report.json`` (every number of the report),
-``figures/`` (PNG and SVG, time-lapse strips as PNG) and ``cache/`` (the validation re-runs and
-the strips already drawn, so that a second report on the same campaign is quick). The report
-is written all or nothing (:mod:`.staging`): a failure leaves the old one as it was. A task
-that is not finished, or cannot be read, is listed as missing. Each kind of experiment adds its
-own entries, figures and text through its section (:mod:`.sections`), in the kinds' order.
+``figures/`` (PNG and SVG, time-lapse strips as PNG) and ``cache/`` (the validation and fresh
+re-runs and the strips already drawn, so that a second report on the same campaign is quick).
+The report is written all or nothing (:mod:`.staging`): a failure leaves the old one as it
+was. A task that is not finished, or cannot be read, is listed as missing. Each kind of
+experiment adds its own entries, figures and text through its section (:mod:`.sections`), in the
+kinds' order.
 """
 
 from __future__ import annotations
@@ -15,15 +16,17 @@ from pathlib import Path
 
 from .._io import check_output_folder, write_atomic
 from ..analysis.stats import describe, to_json
+from ..errors import bad
 from ..formats import REPORT
-from ..tasks.validation import VALIDATION_COUNT, check_count
+from ..limits import MAX_VALIDATION, at_most
+from ..tasks.validation import VALIDATION_COUNT, check_count, validation_terrains
 from ..viz import report_figures as figures
 from . import evolution, paper
 from .campaign import read_campaign
 from .caveats import caveats
 from .load import load, shape_name
 from .markdown import render_html, render_markdown
-from .rerun import rerun_finals
+from .rerun import FRESH_COUNT, FRESH_NOISE_SEED, fresh_terrains, rerun_finals
 from .section import Inputs
 from .sections import SECTIONS, in_order
 from .staging import staged_report
@@ -32,32 +35,45 @@ from .transfer import read_transfer
 
 
 def build_report(campaign_dir: str | Path, out: str | Path, validation: int = VALIDATION_COUNT,
-                 timelapse: bool = True, stage=None, under_way: bool = False) -> dict:
+                 timelapse: bool = True, stage=None, under_way: bool = False,
+                 fresh: int = FRESH_COUNT) -> dict:
     """Write the report of ``campaign_dir`` into ``out``; returns report.json's data.
     ``stage(text)``, when given, is told what is being done (it takes seconds to minutes).
     With ``under_way``, the evolve runs not finished yet are drawn in the curves (Figures 3
-    and 10) to their last logged generation, and in no final number."""
+    and 10) to their last logged generation, and in no final number. ``fresh``: how many
+    fresh terrains each final best is also re-run on (0: none)."""
     stage = stage or (lambda text: None)
     check_count(validation)
+    if isinstance(fresh, bool) or not isinstance(fresh, int) or fresh < 0:
+        raise bad("fresh", fresh, "must be a whole number (0: no fresh terrains)")
+    at_most("fresh", fresh, MAX_VALIDATION)
     out = check_output_folder(out)
     stage("reading the campaign")
     campaign = read_campaign(campaign_dir)
     check_apart(campaign_dir, out)
     loaded = load(campaign, under_way)
     with staged_report(out) as new:
-        report = _write_report(campaign, loaded, new, validation, timelapse, stage)
+        report = _write_report(campaign, loaded, new, validation, timelapse, stage, fresh)
     return report
 
 
 def _write_report(campaign, loaded, new: Path, validation: int, timelapse: bool,
-                  stage) -> dict:
+                  stage, fresh: int) -> dict:
     """Every file of the report, into the (hidden, new) report folder ``new``."""
     folder = new / "figures"
     folder.mkdir(exist_ok=True)
     stage(f"re-running the final bests on {validation} validation terrains")
-    reruns, simulated = rerun_finals(loaded.runs, loaded.bests, loaded.sims, validation,
+    reruns, simulated = rerun_finals(loaded.runs, loaded.bests, loaded.sims,
+                                     validation_terrains(validation),
                                      new / "cache" / "validation.json")
-    rows = _validation_rows(campaign, loaded, reruns)
+    drawn_fresh = {}
+    if fresh:
+        stage(f"re-running the final bests on {fresh} fresh terrains")
+        drawn_fresh, more = rerun_finals(loaded.runs, loaded.bests, loaded.sims,
+                                         fresh_terrains(fresh), new / "cache" / "fresh.json",
+                                         FRESH_NOISE_SEED)
+        simulated += more
+    rows = _validation_rows(campaign, loaded, reruns, drawn_fresh)
     report = {
         **REPORT.header(),
         "campaign": {"name": campaign.name, "source": campaign.source,
@@ -113,7 +129,10 @@ def check_apart(campaign_dir: str | Path, out: str | Path) -> None:
                       f"{name}/, which the report writes; give another report folder")
 
 
-def _validation_rows(campaign, loaded, reruns: dict) -> list[dict]:
+def _validation_rows(campaign, loaded, reruns: dict, fresh: dict) -> list[dict]:
+    """Per final best: its logged v_x, its re-runs on the validation terrains and, where
+    ``fresh`` holds them, on the fresh terrains (``fresh``, ``fresh_terrains``,
+    ``fresh_velocities``: absent from reports written without)."""
     rows = []
     for task in campaign.tasks:
         if task.id in reruns:
@@ -123,6 +142,11 @@ def _validation_rows(campaign, loaded, reruns: dict) -> list[dict]:
                          "logged": result["logged"], "validation": result["mean"],
                          "logged_validation": result["logged_validation"],
                          "terrains": result["terrains"], "velocities": result["velocities"]})
+            if task.id in fresh:
+                drawn = fresh[task.id]
+                rows[-1].update({"fresh": drawn["mean"], "fresh_terrains": drawn["terrains"],
+                                 "fresh_velocities": drawn["velocities"],
+                                 "fresh_noise_seed": FRESH_NOISE_SEED})
     # Grouped by experiment (the campaign's order), then shape (biped, worm, others).
     experiments = list(dict.fromkeys(r["experiment"] for r in rows))
     shapes = evolution.shape_order(r["shape"] for r in rows)
@@ -159,6 +183,10 @@ def _validation(rows: list[dict], n_terrains: int, inputs: Inputs) -> dict:
                       "shape": members[0]["shape"], "n": len(members),
                       "logged": logged, "validation": describe(finite),
                       "validation_non_finite": len(members) - len(finite)})
+        if all("fresh" in m for m in members):
+            drawn = [m["fresh"] for m in members if math.isfinite(m["fresh"])]
+            table[-1].update({"fresh": describe(drawn),
+                              "fresh_non_finite": len(members) - len(drawn)})
     files = inputs.save(figures.validation_figure, rows, "validation")
     return {"terrains": n_terrains, "robots": rows, "summary": table, "files": files}
 

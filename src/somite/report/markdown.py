@@ -82,18 +82,36 @@ def _missing_figures(report: dict) -> list[str]:
 
 def _validation(report: dict) -> list[str]:
     data = report["validation"]
+    robots = data["robots"]
+    # Reports written before the fresh re-runs (or with --fresh 0) have none: no column.
+    fresh = bool(robots) and all("fresh" in r for r in robots)
     lines = ["## Beyond the paper: every final best on the validation terrains", "",
              f"Each run's final best re-run on the {data['terrains']} fixed validation terrains "
-             "(mean v_x), beside its logged v_x (its training draw).", ""]
+             "(mean v_x), beside its logged v_x (its training draw)."
+             + (_fresh_sentence(robots[0]) if fresh else ""), ""]
     rows = [[s["experiment"], s["shape"], s["n"], median_sd(s["logged"]),
-             median_sd(s["validation"]), s["validation_non_finite"]] for s in data["summary"]]
+             median_sd(s["validation"]), s["validation_non_finite"]]
+            + ([median_sd(s["fresh"]), s["fresh_non_finite"]] if fresh else [])
+            for s in data["summary"]]
     lines += table(["experiment", "shape", "robots", "logged v_x", "v_x on validation terrains",
-                    "non-finite on a validation terrain"], rows)
+                    "non-finite on a validation terrain"]
+                   + (["v_x on fresh terrains", "non-finite on a fresh terrain"] if fresh
+                      else []), rows)
     rows = [[r["task"], number(r["logged"]), number(r["validation"]),
-             number(r["logged_validation"])] for r in data["robots"]]
+             number(r["logged_validation"])] + ([number(r["fresh"])] if fresh else [])
+            for r in robots]
     lines += table(["robot", "logged v_x", "validation v_x (re-run)",
-                    "validation v_x (run's own log)"], rows)
+                    "validation v_x (run's own log)"]
+                   + (["v_x on fresh terrains"] if fresh else []), rows)
     return lines + images(data["files"], "logged against validation v_x")
+
+
+def _fresh_sentence(robot: dict) -> str:
+    names = robot["fresh_terrains"]
+    return (f" And on {len(names)} fresh terrains ({names[0]} on: neither training nor "
+            "validation terrains, which a run logs its best on and the report picks the robots "
+            f"it draws by) under sensor noise of seed {robot['fresh_noise_seed']} (the "
+            "validation episodes draw seed 0): the robots' speed where nothing chose them.")
 
 
 def _transfer(report: dict) -> list[str]:

@@ -1,12 +1,18 @@
-"""Every final best re-run on the fixed validation terrains, cached in the report folder.
+"""Every final best re-run on the fixed validation terrains, and on fresh ones under fresh
+noise, cached in the report folder.
 
 A run's logged best v_x is its luckiest terrain draw; the report puts its mean v_x on the
 validation terrains (``hilly-1-10-10000``, ...: never training terrains) beside it. The episodes
 are those of :meth:`somite.tasks.task.Locomotion.validate` (sensor-noise seed 0), with each
 run's own episode settings, so a run that validated its last generation logged the same number.
+The validation terrains are not quite unseen: a run logs its best's v_x on them and the report
+picks the robots it draws by it. So each best is also re-run on fresh terrains
+(:func:`fresh_terrains`, ``hilly-1-10-20000``, ...: neither training nor validation terrains)
+under sensor noise of another seed (:data:`FRESH_NOISE_SEED`).
 
-The re-runs are cached in ``REPORT/cache/validation.json``, keyed by a hash of the genome, the
-episode settings and the terrains: a second report on the same campaign simulates nothing.
+The re-runs are cached in ``REPORT/cache/validation.json`` and ``fresh.json``, keyed by a hash
+of the genome, the episode settings, the terrains and the noise seed: a second report on the
+same campaign simulates nothing.
 """
 
 from __future__ import annotations
@@ -23,17 +29,36 @@ from ..brain.genome import Genome
 from ..errors import SomiteError
 from ..formats import REPORT_CACHE
 from ..sim.config import SimConfig
-from ..tasks.validation import evaluate, validation_terrains
+from ..sim.terrain import N_TRAINING_SEEDS, Terrain, hilly
+from ..tasks.validation import VALIDATION_HEIGHT, VALIDATION_WIDTH, check_count, evaluate
 from ..tasks.velocity import mean_velocity
 
+FRESH_SEED0 = 2 * N_TRAINING_SEEDS
+"""Fresh terrain i is ``hilly-1-10-(20000 + i)``: past the training seeds (below 10000) and the
+validation terrains (10000 to 10999 at most)."""
+FRESH_NOISE_SEED = 1
+"""The sensor-noise seed of the fresh re-runs (the validation episodes draw seed 0)."""
+FRESH_COUNT = 20
+"""How many fresh terrains ``somite report`` re-runs each final best on by default."""
 
-def cache_key(genome: Genome, sim: SimConfig, terrains: list[str]) -> str:
+
+def fresh_terrains(count: int = FRESH_COUNT) -> list[Terrain]:
+    """The first ``count`` fresh terrains, shaped as the validation ones (hilly, 1 m, 10 m)."""
+    check_count(count, "fresh")
+    return [hilly(VALIDATION_HEIGHT, VALIDATION_WIDTH, FRESH_SEED0 + i) for i in range(count)]
+
+
+def cache_key(genome: Genome, sim: SimConfig, terrains: list[str], seed: int = 0) -> str:
     """What decides a re-run's numbers, hashed (somite's version included: the simulator may
-    change between versions)."""
+    change between versions). The noise seed enters only when it is not 0, so that the keys of
+    the re-runs at seed 0 stay those written before the seed was a choice."""
     import somite
 
-    text = json.dumps({"genome": genome.to_compact(), "sim": asdict(sim), "terrains": terrains,
-                       "somite": somite.__version__}, sort_keys=True)
+    what = {"genome": genome.to_compact(), "sim": asdict(sim), "terrains": terrains,
+            "somite": somite.__version__}
+    if seed:
+        what["seed"] = seed
+    text = json.dumps(what, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -61,27 +86,27 @@ def _usable(entry, n: int) -> bool:
 
 def rerun_finals(
     runs: Mapping[str, RunLog], bests: Mapping[str, Genome], sims: Mapping[str, SimConfig],
-    n_terrains: int, cache: Path
+    terrains: list[Terrain], cache: Path, seed: int = 0
 ) -> tuple[dict[str, dict], int]:
-    """Each run's final best on ``n_terrains`` validation terrains, with the episode settings
-    it trained with (``sims``); returns the results by task id and how many genomes had to be
-    simulated (0 when the cache held them all).
+    """Each run's final best on ``terrains`` (the validation terrains, or fresh ones), with the
+    episode settings it trained with (``sims``) and sensor-noise seed ``seed``; returns the
+    results by task id and how many genomes had to be simulated (0 when the cache held them
+    all).
 
     A result: ``velocities`` per terrain, their ``mean`` (NaN if any is NaN), the ``logged``
     final best v_x and the log's own last ``validation_velocity`` (NaN where not measured).
     """
-    terrains = validation_terrains(n_terrains)
     names = [t.name for t in terrains]
     entries = read_cache(cache)
     keys, todo = {}, {}
     for task_id in runs:
         sim = sims[task_id]
-        keys[task_id] = cache_key(bests[task_id], sim, names)
+        keys[task_id] = cache_key(bests[task_id], sim, names, seed)
         if not _usable(entries.get(keys[task_id]), len(names)):
             todo.setdefault(sim, {})[keys[task_id]] = bests[task_id]
     for sim, genomes in todo.items():
         # One batch per episode setting: every genome on every terrain at once.
-        velocities = evaluate(list(genomes.values()), terrains, sim)
+        velocities = evaluate(list(genomes.values()), terrains, sim, seed)
         for key, row in zip(genomes, velocities):
             entries[key] = [float(v) for v in row]
     simulated = sum(len(g) for g in todo.values())
@@ -104,4 +129,5 @@ def rerun_finals(
     return results, simulated
 
 
-__all__ = ["cache_key", "rerun_finals"]
+__all__ = ["FRESH_COUNT", "FRESH_NOISE_SEED", "FRESH_SEED0", "cache_key", "fresh_terrains",
+           "rerun_finals"]

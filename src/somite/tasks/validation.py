@@ -32,11 +32,12 @@ VALIDATION_SEED0 = N_TRAINING_SEEDS
 ``hilly-1-10-10000``, ``hilly-1-10-10001``, ..., just past the training seeds."""
 
 
-def check_count(count: int) -> int:
-    """A number of validation terrains: 1 to :data:`~somite.limits.MAX_VALIDATION`."""
+def check_count(count: int, name: str = "validation") -> int:
+    """A number of validation terrains (or of terrains like them, the field ``name``): 1 to
+    :data:`~somite.limits.MAX_VALIDATION`."""
     if isinstance(count, bool) or not isinstance(count, int) or count < 1:
-        raise bad("validation", count, "must be a whole number at least 1")
-    at_most("validation", count, MAX_VALIDATION)
+        raise bad(name, count, "must be a whole number at least 1")
+    at_most(name, count, MAX_VALIDATION)
     return count
 
 

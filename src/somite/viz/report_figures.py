@@ -31,12 +31,17 @@ def _figure(columns: int, rows: int = 1, width: float = 4.6, height: float = 3.4
 
 
 def save(figure, folder: Path, stem: str) -> list[str]:
-    """Write ``stem.png`` and ``stem.svg`` into ``folder``; returns their names."""
+    """Write ``stem.png`` and ``stem.svg`` into ``folder``; returns their names. The same
+    figure gives the same bytes: the SVG carries no date and its ids are salted with a constant,
+    so a report regenerated on the same numbers changes no figure in a repository."""
+    import matplotlib
+
     names = []
     for fmt in FORMATS:
         path = folder / f"{stem}.{fmt}"
-        with atomic_output(path) as tmp:
-            figure.savefig(tmp, dpi=110, format=fmt)
+        with atomic_output(path) as tmp, matplotlib.rc_context({"svg.hashsalt": "somite"}):
+            figure.savefig(tmp, dpi=110, format=fmt,
+                           metadata={"Date": None} if fmt == "svg" else None)
         names.append(path.name)
     return names
 

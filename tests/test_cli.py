@@ -132,6 +132,8 @@ BEYOND = [
     ("shape", ["evolve", "--out", "{out}", "--shape", "1" * 40]),
     ("shape", ["simulate", "--shape", "100000000000x1"]),
     ("validation", ["evaluate", "{genome}", "--validation", "100000"]),
+    ("fresh", ["evaluate", "{genome}", "--fresh", "100000"]),
+    ("fresh", ["evaluate", "{genome}", "--fresh", "0"]),
     ("validation", ["reoptimize", "{genome}", "--out", "{out}", "--validation", "100000"]),
     ("frames", ["show", "{genome}", "--out", "{out}.png", "--frames", "100000"]),
     ("fps", ["show", "{genome}", "--out", "{out}.mp4", "--fps", "0.001"]),

@@ -272,5 +272,15 @@ def test_evaluate_reports_every_validation_terrain(tmp_path, capsys):
     code = main(["evaluate", str(tmp_path / "run"), "--terrain", "flat", "--terrain",
                  "uphill-10", "--duration", "3", "--json"])
     assert list(json.loads(capsys.readouterr().out)["terrains"]) == ["flat", "uphill-10"]
+    # --fresh N: the report's fresh terrains, the very episodes of naming them one by one
+    code = main(["evaluate", str(tmp_path / "run"), "--fresh", "2", "--duration", "3",
+                 "--seed", "1", "--json"])
+    fresh = json.loads(capsys.readouterr().out)["terrains"]
+    assert list(fresh) == ["hilly-1-10-20000", "hilly-1-10-20001"]
+    code = main(["evaluate", str(tmp_path / "run"), "--terrain", "hilly-1-10-20000",
+                 "--terrain", "hilly-1-10-20001", "--duration", "3", "--seed", "1", "--json"])
+    assert json.loads(capsys.readouterr().out)["terrains"] == fresh
+    assert main(["evaluate", str(tmp_path / "run"), "--fresh", "2", "--terrain", "flat"]) == 2
+    assert "fresh=2: give --fresh or --terrain, not both" in capsys.readouterr().err
     assert main(["evaluate", str(tmp_path / "missing")]) == 2
     assert "no such file or run directory" in capsys.readouterr().err

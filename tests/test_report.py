@@ -17,8 +17,8 @@ from somite.analysis.stats import load_run
 from somite.brain.genome import Genome
 from somite.cli import main
 from somite.experiments.config import resolve
-from somite.report.rerun import FRESH_COUNT, fresh_terrains
-from somite.tasks.validation import evaluate
+from somite.report.rerun import FRESH_COUNT
+from somite.tasks.validation import evaluate, fresh_terrains
 from somite.tasks.velocity import mean_velocity
 
 from .campaign_fixture import UNFINISHED, build_campaign

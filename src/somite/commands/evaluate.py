@@ -10,7 +10,7 @@ from ..errors import bad
 from ..experiments.origin import origin_of
 from ..sim.terrain import parse_terrain
 from ..tasks.locomotion import OUTCOME_UNITS
-from ..tasks.validation import evaluate_outcomes, validation_terrains
+from ..tasks.validation import evaluate_outcomes, fresh_terrains, validation_terrains
 from ..tasks.velocity import mean_velocity
 from ._progress import simulating
 from .common import (
@@ -26,10 +26,11 @@ from .common import (
     simulation_config,
     warn,
     warn_whole_episode,
+    whole_int,
 )
 
-HELP = ("Evaluate a genome (file or run directory) on its run's terrain or the validation "
-        "terrains; per-terrain v_x.")
+HELP = ("Evaluate a genome (file or run directory) on its run's terrain, the validation "
+        "terrains or fresh ones; per-terrain v_x.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -40,6 +41,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="terrain name (repeatable); default: the run's training terrain "
                         "when it was one fixed terrain (e.g. flat), else the validation "
                         "terrains")
+    parser.add_argument("--fresh", type=whole_int("fresh"), metavar="N",
+                        help="the first N fresh terrains instead (hilly-1-10-20000 on: "
+                        "neither training nor validation terrains, as in somite report)")
     add_simulation_options(parser, layered=GENOME_RUN)
     add_options(parser, "json", "yes")
 
@@ -47,7 +51,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     genome = load_genome(args.genome)
     origin = origin_of(args.genome)
-    if args.terrains:
+    if args.fresh is not None:
+        if args.terrains:
+            raise bad("fresh", args.fresh, "give --fresh or --terrain, not both")
+        terrains = fresh_terrains(args.fresh)
+        where = f"{len(terrains)} fresh terrains ({terrains[0].name} on)"
+    elif args.terrains:
         terrains = [parse_terrain(name) for name in args.terrains]
         where = ", ".join(args.terrains)
     elif origin.fixed_terrain() is not None:

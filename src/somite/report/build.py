@@ -19,14 +19,19 @@ from ..analysis.stats import describe, to_json
 from ..errors import bad
 from ..formats import REPORT
 from ..limits import MAX_VALIDATION, at_most
-from ..tasks.validation import VALIDATION_COUNT, check_count, validation_terrains
+from ..tasks.validation import (
+    VALIDATION_COUNT,
+    check_count,
+    fresh_terrains,
+    validation_terrains,
+)
 from ..viz import report_figures as figures
 from . import evolution, paper
 from .campaign import read_campaign
 from .caveats import caveats
 from .load import load, shape_name
 from .markdown import render_html, render_markdown
-from .rerun import FRESH_COUNT, FRESH_NOISE_SEED, fresh_terrains, rerun_finals
+from .rerun import FRESH_COUNT, FRESH_NOISE_SEED, rerun_finals
 from .section import Inputs
 from .sections import SECTIONS, in_order
 from .staging import staged_report

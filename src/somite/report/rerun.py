@@ -7,8 +7,8 @@ are those of :meth:`somite.tasks.task.Locomotion.validate` (sensor-noise seed 0)
 run's own episode settings, so a run that validated its last generation logged the same number.
 The validation terrains are not quite unseen: a run logs its best's v_x on them and the report
 picks the robots it draws by it. So each best is also re-run on fresh terrains
-(:func:`fresh_terrains`, ``hilly-1-10-20000``, ...: neither training nor validation terrains)
-under sensor noise of another seed (:data:`FRESH_NOISE_SEED`).
+(:func:`~somite.tasks.validation.fresh_terrains`, ``hilly-1-10-20000``, ...: neither training
+nor validation terrains) under sensor noise of another seed (:data:`FRESH_NOISE_SEED`).
 
 The re-runs are cached in ``REPORT/cache/validation.json`` and ``fresh.json``, keyed by a hash
 of the genome, the episode settings, the terrains and the noise seed: a second report on the
@@ -29,23 +29,15 @@ from ..brain.genome import Genome
 from ..errors import SomiteError
 from ..formats import REPORT_CACHE
 from ..sim.config import SimConfig
-from ..sim.terrain import N_TRAINING_SEEDS, Terrain, hilly
-from ..tasks.validation import VALIDATION_HEIGHT, VALIDATION_WIDTH, check_count, evaluate
+from ..sim.terrain import Terrain
+from ..tasks.validation import evaluate
 from ..tasks.velocity import mean_velocity
 
-FRESH_SEED0 = 2 * N_TRAINING_SEEDS
-"""Fresh terrain i is ``hilly-1-10-(20000 + i)``: past the training seeds (below 10000) and the
-validation terrains (10000 to 10999 at most)."""
 FRESH_NOISE_SEED = 1
 """The sensor-noise seed of the fresh re-runs (the validation episodes draw seed 0)."""
 FRESH_COUNT = 20
-"""How many fresh terrains ``somite report`` re-runs each final best on by default."""
-
-
-def fresh_terrains(count: int = FRESH_COUNT) -> list[Terrain]:
-    """The first ``count`` fresh terrains, shaped as the validation ones (hilly, 1 m, 10 m)."""
-    check_count(count, "fresh")
-    return [hilly(VALIDATION_HEIGHT, VALIDATION_WIDTH, FRESH_SEED0 + i) for i in range(count)]
+"""How many fresh terrains (:func:`somite.tasks.validation.fresh_terrains`) ``somite report``
+re-runs each final best on by default."""
 
 
 def cache_key(genome: Genome, sim: SimConfig, terrains: list[str], seed: int = 0) -> str:
@@ -129,5 +121,4 @@ def rerun_finals(
     return results, simulated
 
 
-__all__ = ["FRESH_COUNT", "FRESH_NOISE_SEED", "FRESH_SEED0", "cache_key", "fresh_terrains",
-           "rerun_finals"]
+__all__ = ["FRESH_COUNT", "FRESH_NOISE_SEED", "cache_key", "rerun_finals"]

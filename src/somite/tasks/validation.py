@@ -32,6 +32,12 @@ VALIDATION_SEED0 = N_TRAINING_SEEDS
 ``hilly-1-10-10000``, ``hilly-1-10-10001``, ..., just past the training seeds."""
 
 
+FRESH_SEED0 = 2 * N_TRAINING_SEEDS
+"""Fresh terrain i is ``hilly(VALIDATION_HEIGHT, VALIDATION_WIDTH, FRESH_SEED0 + i)``:
+``hilly-1-10-20000``, ...: past the training seeds (below 10000) and every validation terrain
+(10000 to 10999 at most), for measuring a robot where nothing chose it."""
+
+
 def check_count(count: int, name: str = "validation") -> int:
     """A number of validation terrains (or of terrains like them, the field ``name``): 1 to
     :data:`~somite.limits.MAX_VALIDATION`."""
@@ -46,6 +52,13 @@ def validation_terrains(count: int = VALIDATION_COUNT) -> list[Terrain]:
     check_count(count)
     return [hilly(VALIDATION_HEIGHT, VALIDATION_WIDTH, VALIDATION_SEED0 + i)
             for i in range(count)]
+
+
+def fresh_terrains(count: int) -> list[Terrain]:
+    """The first ``count`` fresh terrains (:data:`FRESH_SEED0`), hilly like the validation
+    ones."""
+    check_count(count, "fresh")
+    return [hilly(VALIDATION_HEIGHT, VALIDATION_WIDTH, FRESH_SEED0 + i) for i in range(count)]
 
 
 @dataclass(frozen=True)

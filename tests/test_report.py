@@ -289,6 +289,30 @@ def test_fresh_0_re_runs_on_no_fresh_terrain_and_a_bad_count_is_named(campaign, 
         assert not (tmp_path / "r").exists()
 
 
+def test_figures_by_omega_of_one_group_are_neither_drawn_nor_shown(campaign, report, tmp_path):
+    """paper-rq1's layout: one experiment feeds Figure 10 and Figure 3 alike; Figures 10 and 11
+    would be Figures 3 and 5 again, so the report writes no file of them."""
+    copy = tmp_path / "campaign"
+    shutil.copytree(campaign, copy)
+    spec = json.loads((copy / "campaign.json").read_text())
+    spec["experiments"]["rq1"]["figures"] = {"figure3": "omega 1", "figure5": "graph",
+                                             "figure10": "omega 1 (neutral)"}
+    spec["experiments"]["ablation"]["figures"] = {"figure5": "weights only"}
+    (copy / "campaign.json").write_text(json.dumps(spec))
+    out = tmp_path / "report"
+    shutil.copytree(report[0], out)  # its caches: nothing is simulated
+    assert main(["report", str(copy), "--out", str(out), "--no-timelapse", "--quiet"]) == 0
+    data = json.loads((out / "report.json").read_text())
+    assert data["figure10"]["files"] == [] and data["figure10"]["curves"]
+    assert data["figure11"]["files"] == {"logged": [], "validation": []}
+    assert all(list(c["logged"]["groups"]) == ["omega 1 (neutral)"]
+               for c in data["figure11"]["comparison"].values())
+    names = {p.name for p in (out / "figures").iterdir()}
+    assert "figure3.svg" in names and "figure5-logged.svg" in names
+    assert not {n for n in names if n.startswith(("figure10", "figure11"))}
+    assert "*One group only (rq1: omega 1 (neutral))" in (out / "index.md").read_text()
+
+
 def test_a_finished_task_that_cannot_be_read_is_shown_as_missing(campaign, tmp_path, capsys):
     copy = tmp_path / "campaign"
     shutil.copytree(campaign, copy)

@@ -237,11 +237,14 @@ def build(inputs: Inputs) -> dict:
                          ("figure10", campaign.fed("figure10"))):
         # Runs under way (read only on request) are curves so far: never a final number.
         found = groups(campaign, loaded, members, under_way=True)
+        again = shown_before(campaign.figures, key) is not None
         out[key] = {"curves": curves(found, loaded.under_way),
-                    "files": inputs.save(figures.curves_figure, found, key, TITLES[key])}
+                    "files": [] if again else inputs.save(figures.curves_figure, found, key,
+                                                          TITLES[key])}
     for key, members in (("figure5", campaign.fed("figure5")),
                          ("figure11", campaign.fed("figure10"))):
-        out[key] = _boxes(inputs, key, groups(campaign, loaded, members))
+        out[key] = _boxes(inputs, key, groups(campaign, loaded, members),
+                          draw=shown_before(campaign.figures, key) is None)
     out["figure3"]["paper"] = paper.figure3()
     out["figure5"]["paper"] = paper.ABLATION.to_dict()
     if loaded.under_way:
@@ -257,12 +260,16 @@ def build(inputs: Inputs) -> dict:
     return out
 
 
-def _boxes(inputs: Inputs, key: str, found: Groups) -> dict:
-    """Figure 5 or 11: the final v_x compared, logged and on the validation terrains."""
+def _boxes(inputs: Inputs, key: str, found: Groups, draw: bool = True) -> dict:
+    """Figure 5 or 11: the final v_x compared, logged and on the validation terrains (drawn
+    unless not ``draw``: the files then are empty lists)."""
     compared = final_comparison(found, inputs.reruns)
     files = {}
     for which, label in (("logged", "logged best $v_x$ [m/s]"),
                          ("validation", "$v_x$ on the validation terrains [m/s]")):
+        if not draw:
+            files[which] = []
+            continue
         panels = {shape: {g: d["values"] for g, d in c[which]["groups"].items()}
                   for shape, c in compared.items()}
         files[which] = inputs.save(figures.boxes_figure, panels, f"{key}-{which}", label,
@@ -338,19 +345,29 @@ SHOWN_BEFORE = {"figure10": "figure3", "figure11": "figure5"}
 """The figure that already shows the runs of a figure by omega when only one group feeds it."""
 
 
-def _one_group_shown_before(report: dict, key: str) -> list[str]:
-    """For Figure 10 or 11 fed by one experiment that also feeds Figure 3 or 5 (paper-rq1's
-    rq1): the line that says so, instead of that figure again; else nothing."""
+def shown_before(fed: dict, key: str) -> tuple[str, str] | None:
+    """For Figure 10 or 11 fed (``fed``: report.json's ``figures.fed``) by one experiment that
+    also feeds Figure 3 or 5 (paper-rq1's rq1): that experiment and its label, for the figure
+    is the earlier one again (neither drawn nor shown); else None."""
     if key not in SHOWN_BEFORE:
-        return []
-    fed = (report.get("figures") or {}).get("fed") or {}
+        return None
     mine = fed.get("figure10", {})  # Figure 11 draws the final v_x of Figure 10's runs
-    before = SHOWN_BEFORE[key]
-    if len(mine) != 1 or not set(mine) <= set(fed.get(before, {})):
-        return []
+    if len(mine) != 1 or not set(mine) <= set(fed.get(SHOWN_BEFORE[key], {})):
+        return None
     (experiment, label), = mine.items()
-    return [f"*One group only ({experiment}: {label}), whose runs {TITLES[before].split(':')[0]} "
-            "shows: nothing to compare by omega.*", ""]
+    return experiment, label
+
+
+def _one_group_shown_before(report: dict, key: str) -> list[str]:
+    """For Figure 10 or 11 that :func:`shown_before`: the line that says so, instead of the
+    figure; else nothing."""
+    same = shown_before((report.get("figures") or {}).get("fed") or {}, key)
+    if same is None:
+        return []
+    experiment, label = same
+    before = TITLES[SHOWN_BEFORE[key]].split(":")[0]
+    return [f"*One group only ({experiment}: {label}), whose runs {before} shows: nothing to "
+            "compare by omega.*", ""]
 
 
 def _under_way_note(found: dict) -> list[str]:

@@ -80,6 +80,18 @@ def test_validation_terrains_cannot_be_trained_on_under_any_spelling(name):
         Locomotion(terrain=name)
 
 
+@pytest.mark.parametrize("name", ["hilly-1-10-20000", "hilly-1-10-20019", "hilly-1-10-20999"])
+def test_fresh_terrains_cannot_be_trained_on(name):
+    """The report measures every final best on them: a run trained there would be measured on
+    its own training terrain."""
+    from somite.tasks.task import Locomotion
+
+    with pytest.raises(SomiteError, match=f"^terrain='{name}': a fresh terrain"):
+        Locomotion(terrain=name)
+    for beside in ("hilly-1-10-19999", "hilly-1-10-21000", "hilly-2-10-20000"):
+        assert Locomotion(terrain=beside).terrains.name == beside
+
+
 def test_the_names_somite_writes_read_back_as_themselves():
     for terrain in (hilly(1.0, 10.0, 42), hilly(2.5, 4.0, 0), hilly(0.00001, 10.0, 1),
                     hilly(1000.0, 0.1, 2**63 - 1)):

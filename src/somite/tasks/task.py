@@ -27,7 +27,7 @@ from ..sim.terrain import Terrain
 from . import arguments
 from .distributions import TerrainDistribution, parse_distribution
 from .locomotion import Controller, Outcome, simulate_batch
-from .validation import VALIDATION_COUNT, ValidationSet
+from .validation import VALIDATION_COUNT, ValidationSet, is_fresh_terrain
 from .validation import evaluate as evaluate_on
 from .velocity import mean_velocity
 
@@ -102,6 +102,11 @@ class Locomotion:
         if not self.terrains.is_random and self.terrains.name in self.validation.names:
             raise bad("terrain", terrain if isinstance(terrain, str) else self.terrains.name,
                       "a validation terrain cannot be a training terrain")
+        if not self.terrains.is_random and is_fresh_terrain(self.terrains.name):
+            raise bad("terrain", terrain if isinstance(terrain, str) else self.terrains.name,
+                      "a fresh terrain (hilly-1-10-20000 to -20999, where somite report and "
+                      "evaluate --fresh measure robots nothing chose) cannot be a training "
+                      "terrain")
         self.body = None if body is None else arguments.body("body", body)
 
     @property

@@ -61,6 +61,13 @@ def fresh_terrains(count: int) -> list[Terrain]:
     return [hilly(VALIDATION_HEIGHT, VALIDATION_WIDTH, FRESH_SEED0 + i) for i in range(count)]
 
 
+def is_fresh_terrain(name: str) -> bool:
+    """Whether the (canonical) terrain name is one of the fresh terrains any count can give."""
+    prefix = hilly_name(VALIDATION_HEIGHT, VALIDATION_WIDTH, 0)[:-1]
+    seed = name[len(prefix):] if name.startswith(prefix) else ""
+    return seed.isdigit() and FRESH_SEED0 <= int(seed) < FRESH_SEED0 + MAX_VALIDATION
+
+
 @dataclass(frozen=True)
 class ValidationSet:
     """The first ``count`` validation terrains (checked: 1 to

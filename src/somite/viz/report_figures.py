@@ -99,20 +99,28 @@ def rho_figure(found: dict, title: str):
 
 def validation_figure(rows: list[dict]):
     """Every final best: its logged v_x (x) against its mean v_x on the validation terrains
-    (y), one colour per experiment; the diagonal is 'as good as logged'."""
+    (y, filled), and on the fresh terrains where the rows have them (hollow), one colour per
+    experiment; the diagonal is 'as good as logged'."""
     figure, axes = _figure(1, width=5.6, height=4.4)
     axes_ = axes[0, 0]
     experiments = list(dict.fromkeys(r["experiment"] for r in rows))
+    fresh = bool(rows) and all("fresh" in r for r in rows)
     for k, experiment in enumerate(experiments):
         members = [r for r in rows if r["experiment"] == experiment]
+        colour = COLOURS[k % len(COLOURS)]
         axes_.scatter([r["logged"] for r in members], [r["validation"] for r in members], s=14,
-                      color=COLOURS[k % len(COLOURS)], label=experiment)
-    values = [v for r in rows for v in (r["logged"], r["validation"]) if np.isfinite(v)]
+                      color=colour, label=experiment)
+        if fresh:
+            axes_.scatter([r["logged"] for r in members], [r["fresh"] for r in members], s=18,
+                          facecolors="none", edgecolors=colour, linewidths=0.9)
+    measured = ("logged", "validation", "fresh") if fresh else ("logged", "validation")
+    values = [r[k] for r in rows for k in measured if np.isfinite(r[k])]
     if values:
         low, high = min(values), max(values)
         axes_.plot([low, high], [low, high], color="black", lw=0.8, ls=":")
     axes_.set_xlabel("logged best $v_x$ at the last generation [m/s]")
-    axes_.set_ylabel("mean $v_x$ on the validation terrains [m/s]")
+    axes_.set_ylabel("mean $v_x$ on the validation terrains (filled)\nand on fresh ones "
+                     "(hollow) [m/s]" if fresh else "mean $v_x$ on the validation terrains [m/s]")
     axes_.grid(alpha=0.3)
     axes_.legend(fontsize=7, frameon=False)
     return figure

@@ -48,6 +48,7 @@ _EXPORTS = {
     "Episode": "somite.tasks.stepper",
     "evaluate_genomes": "somite.tasks.validation:evaluate",
     "validation_terrains": "somite.tasks.validation",
+    "fresh_terrains": "somite.tasks.validation",
     "fresh_noise": "somite.tasks.validation",
     "preset": "somite.sim.config",
     "record_episode": "somite.viz.video",

@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from somite.cli import build_parser
@@ -100,5 +101,6 @@ def test_the_python_block_runs():
     names: dict = {}
     exec(compile(_block("api", "python"), "README.md", "exec"), names)
     assert len(names["ea"].log) == 3 and len(names["outcomes"]) == 2  # generations 0, 1, 2
-    assert names["velocities"].shape == (1, 2)
+    assert names["velocities"].shape == (1, 2) and names["unseen"].shape == (1, 2)
+    assert not np.array_equal(names["unseen"], names["velocities"])
     assert names["recording"].n_steps == 300  # 5 s at 60 Hz

@@ -191,3 +191,74 @@ def test_status_and_origin_read_the_same_last_validation(tmp_path):
     _log(tmp_path / "run", [*rows, (100, 0.5, float("nan")), (101, 0.5, None)])
     assert math.isnan(progress(tmp_path / "run", {}, False)["validation"])
     assert _last_validation(tmp_path / "run") is None
+
+
+def _timed_log(folder: Path, paces: list[tuple[int, float]]) -> None:
+    """A run's log.csv whose generations after the 0th (3 s) took the given seconds:
+    (generations, seconds each), in order."""
+    folder.mkdir(parents=True, exist_ok=True)
+    rows, generation, elapsed = [(0, 3.0)], 0, 3.0
+    for count, seconds in paces:
+        for _ in range(count):
+            generation, elapsed = generation + 1, elapsed + seconds
+            rows.append((generation, elapsed))
+    lines = [",".join(LOG_COLUMNS)]
+    for generation, elapsed in rows:
+        row = dict.fromkeys(LOG_COLUMNS)
+        row.update(generation=generation, best_velocity=0.5, elapsed_seconds=elapsed)
+        lines.append(format_row(row))
+    (folder / "log.csv").write_text("\n".join(lines) + "\n")
+
+
+def test_a_run_s_pace_is_its_last_hundred_generations(tmp_path):
+    """Timed from elapsed_seconds (a run's own computing, kept across resumes): the last 100
+    generations, so that a run's first compile or a busier machine long ago do not count."""
+    from somite.campaigns.kinds.evolve import PACE_GENERATIONS, progress
+
+    _timed_log(tmp_path / "run", [(200, 9.0), (150, 6.0)])
+    found = progress(tmp_path / "run", {}, False)
+    assert found["generation"] == 350 and PACE_GENERATIONS == 100
+    assert found["seconds_per_generation"] == pytest.approx(6.0)
+    _timed_log(tmp_path / "slow-end", [(200, 6.0), (30, 9.0)])
+    assert progress(tmp_path / "slow-end", {}, False)["seconds_per_generation"] == (
+        pytest.approx((70 * 6.0 + 30 * 9.0) / 100))
+    _log(tmp_path / "untimed", [(0, 0.1, None), (1, 0.2, None)])
+    assert "seconds_per_generation" not in progress(tmp_path / "untimed", {}, False)
+    _timed_log(tmp_path / "one-row", [])
+    assert "seconds_per_generation" not in progress(tmp_path / "one-row", {}, False)
+
+
+def test_status_says_the_time_left_at_the_runs_pace(tmp_path, capsys, monkeypatch):
+    """paper-rq1:1 (four runs of 3000 generations, the same robot-control-steps each): one run
+    done at 4 s a generation, two running at 6 and 5 s, one queued at the median pace (5 s):
+    2000 x 6 + 2900 x 5 + 3000 x 5 = 41,500 s one run at a time, half that two at a time
+    (4100 of the 12,000 generations done: 34.2%)."""
+    from somite.campaigns.progress import seconds_left
+
+    root = tmp_path / "rq1"
+    campaign = builtin("paper-rq1:1")
+    prepare(root, document(campaign, expand(campaign)), resume=False)
+    doc = json.loads((root / "campaign.json").read_text())
+    assert [t["id"] for t in doc["tasks"]] == [
+        "rq1/biped-s0", "rq1/worm-s0", "ablation/biped-s0", "ablation/worm-s0"]
+    _timed_log(root / "rq1/biped-s0", [(3000, 4.0)])
+    _done(root / "rq1/biped-s0")
+    _timed_log(root / "rq1/worm-s0", [(900, 8.0), (100, 6.0)])
+    _timed_log(root / "ablation/biped-s0", [(100, 5.0)])
+    for run in ("rq1/worm-s0", "ablation/biped-s0"):
+        (root / run / LOCK_NAME).write_text(json.dumps(
+            {"pid": os.getpid(), "host": socket.gethostname()}))
+    assert seconds_left(doc, states(root, doc)) == pytest.approx(41_500)
+    out = " ".join(_output(capsys, monkeypatch, ["campaign", "status", str(root)]).split())
+    assert ("1 done, 2 running, 0 partial, 1 queued; 34.2% of 4.15e+09 robot-control-steps; "
+            "left at the runs' recent pace: ~11.5 h one task at a time, ~5.8 h 2 at a time"
+            ) in out
+    # Stopped, the same time left, one task at a time only; finished, no estimate at all.
+    for run in ("rq1/worm-s0", "ablation/biped-s0"):
+        (root / run / LOCK_NAME).unlink()
+    out = " ".join(_output(capsys, monkeypatch, ["campaign", "status", str(root)]).split())
+    assert out.endswith("left at the runs' recent pace: ~11.5 h one task at a time")
+    for run in ("rq1/worm-s0", "ablation/biped-s0", "ablation/worm-s0"):
+        _done(root / run)
+    out = _output(capsys, monkeypatch, ["campaign", "status", str(root)])
+    assert "left at" not in out and seconds_left(doc, states(root, doc)) == 0

@@ -3,6 +3,7 @@ for the live view of ``campaign run`` and the table of ``campaign status``."""
 
 from __future__ import annotations
 
+import statistics
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -50,3 +51,31 @@ def snapshot(doc: dict, infos: list[dict]) -> Snapshot:
             done += steps * part / info["generations"]
     running = [i for i in infos if i["state"] == "running"]
     return Snapshot(counts, (reached, generations), (done, total), running)
+
+
+def seconds_left(doc: dict, infos: list[dict]) -> float | None:
+    """Seconds of computing the campaign's unfinished tasks still need, one task at a time:
+    each started run's robot-control-steps left at its own pace over its last generations
+    (:func:`.kinds.evolve.progress`), every other task's at the median pace of those runs.
+    None where no run has a pace yet (none has logged two timed generations).
+
+    A run's pace is of one run beside whatever else ran then (a core each, in a campaign);
+    with N runs at once on N cores the campaign ends in about this over N."""
+    paces, left = [], []
+    for task, info in zip(doc["tasks"], infos):
+        steps = estimate(task)
+        per_generation = info.get("seconds_per_generation")
+        own = None
+        if per_generation and info["generations"]:
+            own = steps / info["generations"] / per_generation
+            paces.append(own)
+        if info["state"] == "done":
+            continue
+        part = 0.0
+        if info["generation"] is not None and info["generations"]:
+            part = min(info["generation"], info["generations"]) / info["generations"]
+        left.append((steps * (1.0 - part), own))
+    if not paces:
+        return None
+    typical = statistics.median(paces)
+    return sum(steps / (own or typical) for steps, own in left)

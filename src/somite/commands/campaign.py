@@ -250,7 +250,7 @@ def _status(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from ..campaigns import directory as campaign_dir
-    from ..campaigns.progress import snapshot, states
+    from ..campaigns.progress import seconds_left, snapshot, states
 
     directory = Path(args.directory)
     doc = campaign_dir.read(directory)
@@ -260,8 +260,22 @@ def _status(args: argparse.Namespace) -> int:
     now = snapshot(doc, infos)
     # Through rich, so that the line wraps at the terminal's width too.
     console.print(", ".join(f"{n} {k}" for k, n in now.counts.items()) +
-                  f"; {now.fraction:.1%} of {now.steps[1]:.3g} robot-control-steps")
+                  f"; {now.fraction:.1%} of {now.steps[1]:.3g} robot-control-steps" +
+                  _time_left(seconds_left(doc, infos), now.counts["running"]))
     return 0
+
+
+def _time_left(seconds: float | None, running: int) -> str:
+    """The status line's estimate of the time left, at the runs' recent pace: one task at a
+    time, and shared among the runs now running where several are."""
+    from ..budget import about
+
+    if not seconds:
+        return ""
+    text = f"; left at the runs' recent pace: {about(seconds)} one task at a time"
+    if running > 1:
+        text += f", {about(seconds / running)} {running} at a time"
+    return text
 
 
 def _duration(seconds: float) -> str:

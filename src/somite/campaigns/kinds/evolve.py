@@ -3,6 +3,7 @@ an ``evolve`` task that writes a run directory (``somite evolve``'s files)."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from ...analysis.stats import load_run
@@ -136,9 +137,28 @@ def progress(folder: Path, options: dict, done: bool) -> dict:
     rows = log_tail(folder / "log.csv", TAIL_BYTES)
     if not rows:
         return {}
-    return {"generation": int(rows[-1]["generation"]),
-            "best": number(rows[-1]["best_velocity"]),
-            "validation": last_validation(rows)}
+    found = {"generation": int(rows[-1]["generation"]),
+             "best": number(rows[-1]["best_velocity"]),
+             "validation": last_validation(rows)}
+    pace = seconds_per_generation(rows[-PACE_GENERATIONS - 1:])
+    if pace is not None:
+        found["seconds_per_generation"] = pace
+    return found
+
+
+PACE_GENERATIONS = 100
+"""How many of a log's last generations :func:`progress` times the run's pace over."""
+
+
+def seconds_per_generation(rows: list[dict]) -> float | None:
+    """The run's pace over ``rows`` (log rows in order), from their ``elapsed_seconds``, which
+    count the run's own computing only (a resume goes on from its checkpoint's count, not from
+    the wall clock); None with fewer than two timed rows."""
+    timed = [(int(row["generation"]), number(row.get("elapsed_seconds"))) for row in rows]
+    timed = [(g, e) for g, e in timed if e is not None and math.isfinite(e)]
+    if len(timed) < 2 or timed[-1][0] <= timed[0][0] or timed[-1][1] <= timed[0][1]:
+        return None
+    return (timed[-1][1] - timed[0][1]) / (timed[-1][0] - timed[0][0])
 
 
 def run_steps(options: dict, generations: int | None = None) -> int:
@@ -165,5 +185,6 @@ def estimate(options: dict) -> int:
     return run_steps(options)
 
 
-__all__ = ["FIELDS", "OUTPUTS", "RUN_EXTRAS", "check", "check_run", "estimate", "expand",
-           "parse", "progress", "read", "run", "run_steps"]
+__all__ = ["FIELDS", "OUTPUTS", "PACE_GENERATIONS", "RUN_EXTRAS", "check", "check_run",
+           "estimate", "expand", "parse", "progress", "read", "run", "run_steps",
+           "seconds_per_generation"]

@@ -14,7 +14,9 @@ import it.units.erallab.hmsrobots.tasks.locomotion.Outcome;
 import it.units.erallab.hmsrobots.util.Grid;
 import it.units.erallab.hmsrobots.util.RobotUtils;
 import org.apache.commons.lang3.tuple.Pair;
+import org.dyn4j.dynamics.Body;
 import org.dyn4j.dynamics.Settings;
+import org.dyn4j.geometry.Rectangle;
 import org.dyn4j.geometry.Vector2;
 
 import java.io.BufferedReader;
@@ -36,7 +38,8 @@ import java.util.concurrent.*;
  *   layout  SHAPE                                    the sensors of each voxel and their widths
  * Env: THREADS (default 2), HIDDEN (sigmoid | tanh; default sigmoid, as the authors' code),
  *   SENSORS (code | paper; default code: spinedTouchSighted, the authors' code's sensors; paper:
- *   somite's paper preset, see paperSensors).
+ *   somite's paper preset, see paperSensors), GAP (1: dump's last column is the lowest block corner's
+ *   height above the terrain, see lowestGap).
  *
  * Genome file (written by export_genomes.py): blocks of
  *   G name shape n_nodes n_edges
@@ -126,6 +129,7 @@ public class CL {
     boolean record;
     List<int[]> order;
     List<double[]> rows = new ArrayList<>();
+    double[][] ground;  // GAP=1: the terrain, for the lowest corner's height above it
     Robot<?> robot;
     int step;
 
@@ -178,6 +182,7 @@ public class CL {
         for (int[] xy : order) for (double d : flatReadings(voxels.get(xy[0], xy[1]))) row.add(d);
         for (int[] xy : order) row.add(voxels.get(xy[0], xy[1]).getLastAppliedForce());
         for (int[] xy : order) row.add(voxels.get(xy[0], xy[1]).getAreaRatio());
+        if (ground != null) row.add(lowestGap(voxels, order, ground));
         rows.add(row.stream().mapToDouble(Double::doubleValue).toArray());
       }
     }
@@ -307,6 +312,34 @@ public class CL {
     pool.shutdown();
   }
 
+  /**
+   * GAP=1 (dump mode): a last column, the robot's lowest block corner's height above the
+   * terrain's line at that corner's x (somite's min_height diagnostic, per control step): below
+   * 0, a corner inside the ground or an end wall.
+   */
+  static double lowestGap(Grid<? extends SensingVoxel> voxels, List<int[]> order, double[][] ground) {
+    double gap = Double.POSITIVE_INFINITY;
+    for (int[] xy : order) {
+      for (Body b : voxels.get(xy[0], xy[1]).getVertexBodies()) {
+        Rectangle r = (Rectangle) b.getFixture(0).getShape();
+        for (Vector2 v : r.getVertices()) {
+          Vector2 w = b.getTransform().getTransformed(v);
+          gap = Math.min(gap, w.y - groundAt(ground, w.x));
+        }
+      }
+    }
+    return gap;
+  }
+
+  static double groundAt(double[][] ground, double x) {
+    double[] xs = ground[0], ys = ground[1];
+    if (x <= xs[0]) return ys[0];
+    for (int i = 1; i < xs.length; i++) {
+      if (x <= xs[i]) return ys[i - 1] + (ys[i] - ys[i - 1]) * (x - xs[i - 1]) / (xs[i] - xs[i - 1]);
+    }
+    return ys[ys.length - 1];
+  }
+
   static void dump(String[] a) throws Exception {
     G g = readGenomes(a[1]).stream().filter(x -> x.name.equals(a[2])).findFirst().orElseThrow();
     boolean sigmoid = !System.getenv().getOrDefault("HIDDEN", "sigmoid").equals("tanh");
@@ -315,6 +348,7 @@ public class CL {
     c.record = true;
     c.robot = robot;
     c.order = voxelOrder(robot.getVoxels());
+    if ("1".equals(System.getenv("GAP"))) c.ground = terrain(a[3]);
     Locomotion loc = new Locomotion(30d, terrain(a[3]), new Settings());
     Outcome o = loc.apply(robot, null);
     try (PrintWriter out = new PrintWriter(new FileWriter(a[5]))) {

@@ -48,15 +48,17 @@ from transfer import (  # noqa: E402
     DYN4J,
     _last_line,
     check_export,
+    driver_config,
     driver_sensors,
     find_java,
     parse_terrains,
 )
 
+from somite._io import parse_json, read_text  # noqa: E402
 from somite.brain.genome import Genome  # noqa: E402
 from somite.errors import SomiteError, bad  # noqa: E402
 from somite.experiments.config import resolve  # noqa: E402
-from somite.sim.config import CONTROL_HZ, preset  # noqa: E402
+from somite.sim.config import CONTROL_HZ  # noqa: E402
 from somite.tasks.episode import D_MIN_GAP, SETTLE_STEPS  # noqa: E402
 from somite.tasks.stepper import Episode  # noqa: E402
 
@@ -72,7 +74,8 @@ def load_genome(path: str) -> tuple[Genome, dict]:
     if folder.is_dir():
         if not (folder / "best.json").is_file():
             raise bad("run", path, "no best.json in it (a run directory of somite evolve)")
-        config = json.loads((folder / "config.json").read_text())
+        config = parse_json(read_text(folder / "config.json", "run"), "run",
+                            str(folder / "config.json"))
         folder = folder / "best.json"
     try:
         return Genome.load(folder), config
@@ -95,12 +98,12 @@ def somite_gaps(genome: Genome, terrain, config) -> tuple[np.ndarray, float]:
     return np.asarray(gaps), float((com[-1] - com[first]) / (DRIVER_DURATION - DRIVER_TRANSIENT))
 
 
-def driver_gaps(exported: Path, terrain: str, sensors: str, java: tuple[str, str],
-                tmp: Path) -> tuple[np.ndarray, np.ndarray, float]:
+def driver_gaps(exported: Path, terrain: str, sensors: str, hidden: str,
+                java: tuple[str, str], tmp: Path) -> tuple[np.ndarray, np.ndarray, float]:
     """2D-VSR-Sim's lowest gap and times at every control step, and v_x (``CL dump``)."""
     executable, classpath = java
     out = tmp / "dump.csv"
-    env = {**os.environ, "GAP": "1", "SENSORS": sensors, "HIDDEN": "tanh"}
+    env = {**os.environ, "GAP": "1", "SENSORS": sensors, "HIDDEN": hidden}
     done = subprocess.run([executable, "-cp", classpath, "CL", "dump", str(exported), "best",
                            terrain, "0", str(out)], capture_output=True, text=True, env=env)
     if done.returncode != 0 or not out.is_file():
@@ -134,12 +137,7 @@ def main(argv: list[str] | None = None) -> int:
         report = []
         for path in args.runs:
             genome, saved = load_genome(path)
-            run_config = resolve(saved)
-            config = preset(run_config.preset, duration=DRIVER_DURATION,
-                            transient=DRIVER_TRANSIENT, noise_sigma=0.0)
-            if config.hidden_activation != "tanh":
-                raise bad("run", path, f"hidden activation {config.hidden_activation!r}: "
-                          "this check drives tanh hidden nodes (the paper preset's)")
+            config = driver_config(resolve(saved), "own").with_options(noise_sigma=0.0)
             sensors = driver_sensors(config, path)
             with tempfile.TemporaryDirectory(prefix="somite-gap-") as folder:
                 tmp = Path(folder)
@@ -157,7 +155,8 @@ def main(argv: list[str] | None = None) -> int:
                     times = (np.arange(len(gaps)) + SETTLE_STEPS + 1) / CONTROL_HZ
                     cells[terrain.name] = {"somite": summary(gaps, times, vx)}
                     for engine in engines:
-                        g, t, v = driver_gaps(exported, terrain.name, sensors, javas[engine], tmp)
+                        g, t, v = driver_gaps(exported, terrain.name, sensors,
+                                              config.hidden_activation, javas[engine], tmp)
                         cells[terrain.name][engine] = summary(g, t, v)
                     print(f"{path} {terrain.name}: " + ", ".join(
                         f"{k} {c['start_min']:.2f}/{c['min']:.2f}" for k, c in

@@ -32,6 +32,14 @@ class Snapshot:
         return self.steps[0] / max(self.steps[1], 1.0)
 
 
+def _part(info: dict) -> float:
+    """The share of an unfinished run's generations that its log has reached (0 for a task
+    that is not a run, or has not started)."""
+    if info["generation"] is None or not info["generations"]:
+        return 0.0
+    return min(info["generation"], info["generations"]) / info["generations"]
+
+
 def snapshot(doc: dict, infos: list[dict]) -> Snapshot:
     counts = {"done": 0, "running": 0, "partial": 0, "queued": 0}
     reached = generations = 0
@@ -46,9 +54,8 @@ def snapshot(doc: dict, infos: list[dict]) -> Snapshot:
             done += steps
             reached += info["generations"] or 0
         elif info["generation"] is not None and info["generations"]:
-            part = min(info["generation"], info["generations"])
-            reached += part
-            done += steps * part / info["generations"]
+            reached += min(info["generation"], info["generations"])
+            done += steps * _part(info)
     running = [i for i in infos if i["state"] == "running"]
     return Snapshot(counts, (reached, generations), (done, total), running)
 
@@ -71,10 +78,7 @@ def seconds_left(doc: dict, infos: list[dict]) -> float | None:
             paces.append(own)
         if info["state"] == "done":
             continue
-        part = 0.0
-        if info["generation"] is not None and info["generations"]:
-            part = min(info["generation"], info["generations"]) / info["generations"]
-        left.append((steps * (1.0 - part), own))
+        left.append((steps * (1.0 - _part(info)), own))
     if not paces:
         return None
     typical = statistics.median(paces)

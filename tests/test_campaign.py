@@ -133,25 +133,52 @@ def test_tasks_follow_the_contract():
     assert by_id["omega-reassembly/omega-10-worm-s0+s1-reopt"]["options"]["omega"] == 10.0
 
 
-def test_begun_runs_start_before_new_ones_then_the_campaigns_order(tmp_path):
-    """A campaign grown by seeds lists the new rq1 seeds before the ablation's seed 0: when
-    that seed has begun, it goes on first, so that seed 0 of every pair finishes first."""
-    from somite.campaigns.executor import priorities, submission_order
+def test_begun_runs_start_before_new_ones_then_seed_by_seed(tmp_path):
+    """Runs already begun go on first (a campaign grown by seeds finishes what it has), then
+    the others seed by seed: every experiment's seed 0, then seed 1, ..., so that a campaign
+    stopped part-way holds as many finished seeds of every experiment."""
+    from somite.campaigns.executor import priorities
 
     tasks = [t for t in expand(builtin("paper-rq1")) if not t["id"].startswith("rq1/biped-s0")]
     order = [t["id"] for t in tasks]
-    assert order.index("rq1/worm-s2") < order.index("ablation/biped-s0")
+    assert order.index("rq1/worm-s2") < order.index("ablation/biped-s0")  # the file's order
     fresh = priorities(tmp_path, tasks)
-    assert sorted(fresh, key=fresh.get, reverse=True) == order
-    for begun in ("ablation/worm-s0", "ablation/biped-s0", "rq1/worm-s0"):
+    assert sorted(fresh, key=fresh.get, reverse=True) == [
+        "rq1/worm-s0", "ablation/biped-s0", "ablation/worm-s0",
+        "rq1/biped-s1", "rq1/worm-s1", "ablation/biped-s1", "ablation/worm-s1",
+        "rq1/biped-s2", "rq1/worm-s2", "ablation/biped-s2", "ablation/worm-s2"]
+    for begun in ("ablation/worm-s0", "rq1/biped-s2", "rq1/worm-s1"):
         (tmp_path / begun).mkdir(parents=True)
-    (tmp_path / "rq1").mkdir(exist_ok=True)  # an experiment's folder begins no run
+    (tmp_path / "ablation" / "biped-s1").mkdir()
     grown = priorities(tmp_path, tasks)
     first = sorted(grown, key=grown.get, reverse=True)
-    assert first[:3] == ["rq1/worm-s0", "ablation/biped-s0", "ablation/worm-s0"]
-    assert first[3:] == [t for t in order if t not in first[:3]]
+    assert first == [
+        "rq1/biped-s2", "rq1/worm-s1", "ablation/biped-s1", "ablation/worm-s0",  # begun
+        "rq1/worm-s0", "ablation/biped-s0",
+        "rq1/biped-s1", "ablation/worm-s1",
+        "rq1/worm-s2", "ablation/biped-s2", "ablation/worm-s2"]
     assert sorted(grown.values()) == list(range(1, len(tasks) + 1))
-    # Submitted by priority, but never before a task it needs (a reassembly needs its donors).
+    # An experiment's folder begins no run.
+    (tmp_path / "rq1" / "worm-s2").mkdir(exist_ok=True)
+    assert priorities(tmp_path, tasks)["rq1/worm-s0"] < priorities(tmp_path, tasks)["rq1/worm-s2"]
+
+
+def test_tasks_built_on_runs_belong_to_their_latest_seed(tmp_path):
+    """A reassembly of seeds 9 and 0 can start only once seed 9 is done: it runs with seed 9,
+    and its re-optimisation with it, though their own seed options say otherwise; submitted
+    by priority, but never before a task it needs."""
+    from somite.campaigns.executor import priorities, replicates, submission_order
+
+    paper = expand(builtin("paper"))
+    seeds = replicates(paper)
+    assert seeds["rq1/worm-s3"] == 3 and seeds["rq3-discovery/worm-s3"] == 3
+    assert seeds["rq2-homo/worm-s9+s0"] == 9 and seeds["rq2-homo/worm-s9+s0-reopt"] == 9
+    assert seeds["rq2-homo/biped-s0+s1"] == 1
+    by_id = {t["id"]: t for t in paper}
+    assert by_id["rq2-homo/worm-s9+s0"]["options"]["seed"] == 0
+    rank = priorities(tmp_path, paper)
+    assert rank["rq2-homo/worm-s9+s0"] < min(rank[t["id"]] for t in paper if t["kind"] == "evolve")
+    assert rank["rq2-homo/biped-s0+s1"] > rank["rq1/biped-s2"]
     smoke = expand(builtin("smoke"))
     (tmp_path / "rq2-homo" / "worm-s1+s0").mkdir(parents=True)
     submitted = [t["id"] for t in submission_order(smoke, priorities(tmp_path, smoke))]

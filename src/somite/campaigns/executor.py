@@ -200,12 +200,44 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
 
 def priorities(directory: Path, tasks: list[dict]) -> dict[str, int]:
     """Each unfinished task's Dask priority (higher starts first; Dask's own order is not the
-    campaign's): the tasks already begun (their folder exists), then the others, each group in
-    the campaign's order. In that order the runs of the first experiments finish first, so a
-    killed campaign leaves few partial ones; with begun ones first, a campaign grown by seeds
-    finishes the runs it has before it starts the new seeds, which come earlier in its order."""
-    begun = sorted(tasks, key=lambda task: not (directory / task["path"]).is_dir())
-    return {task["id"]: len(tasks) - rank for rank, task in enumerate(begun)}
+    campaign's): the tasks already begun (their folder exists), in the campaign's order, then
+    the others seed by seed (:func:`replicate`), each seed in the campaign's order. So a
+    campaign of several seeds completes every experiment's seed 0, then every experiment's
+    seed 1, ...: stopped part-way (machine time runs out), it holds the same number of finished
+    seeds of every experiment, which a comparison between experiments needs, and few partial
+    runs. Begun ones first: a campaign grown by seeds finishes the runs it has first."""
+    seeds = replicates(tasks)
+    place = {task["id"]: rank for rank, task in enumerate(tasks)}
+
+    def key(task: dict) -> tuple:
+        begun = (directory / task["path"]).is_dir()
+        return (not begun, 0 if begun else seeds[task["id"]], place[task["id"]])
+
+    ranked = sorted(tasks, key=key)
+    return {task["id"]: len(tasks) - rank for rank, task in enumerate(ranked)}
+
+
+def replicates(tasks: list[dict]) -> dict[str, int]:
+    """Each task's replicate, the seed it belongs to when seeds are run one after another: an
+    evolution run's own seed; a task built on other tasks (a reassembly on its donors, a
+    discovery on its run) the highest replicate among them, as it can start only once they are
+    done; any other task its ``seed`` option, else 0. Needs outside ``tasks`` (finished ones)
+    count as 0."""
+    by_id = {task["id"]: task for task in tasks}
+    seeds: dict[str, int] = {}
+
+    def seed(task_id: str) -> int:
+        if task_id not in by_id:
+            return 0
+        if task_id not in seeds:
+            task = by_id[task_id]
+            if task["kind"] == "evolve" or not task["needs"]:
+                seeds[task_id] = int(task["options"].get("seed", 0))
+            else:
+                seeds[task_id] = max(seed(n) for n in task["needs"])
+        return seeds[task_id]
+
+    return {task["id"]: seed(task["id"]) for task in tasks}
 
 
 def submission_order(tasks: list[dict], priority: dict[str, int]) -> list[dict]:

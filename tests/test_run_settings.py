@@ -64,6 +64,17 @@ def test_a_run_on_random_terrains_is_evaluated_on_the_validation_terrains(tmp_pa
     report = json.loads(capsys.readouterr().out)
     assert list(report["terrains"]) == ["hilly-1-10-10000", "hilly-1-10-10001"]
     assert report["settings"]["duration"] == 2.0
+    # The diagnostics at the top are the worst terrain's, and the file says so (past the
+    # first 2 s, which they leave out).
+    assert main(["evaluate", str(tmp_path / "r"), "--validation", "2", "--duration", "4",
+                 "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    per_terrain = report["diagnostics"].values()
+    assert all(d["max_tilt_deg"] is not None for d in per_terrain)
+    assert report["flipped_fraction"] == max(d["flipped_fraction"] for d in per_terrain)
+    assert report["min_height"] == min(d["min_height"] for d in per_terrain)
+    assert report["over_terrains"]["flipped_fraction"] == "most over the terrains"
+    assert report["over_terrains"]["min_height"] == "least over the terrains"
 
 
 def test_show_and_simulate_use_the_runs_settings(run, tmp_path, capsys):

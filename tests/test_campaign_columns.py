@@ -121,6 +121,10 @@ def test_status_shows_every_cell_at_80_columns(tmp_path, capsys, monkeypatch, na
     assert expected[LONGEST][3:] == ["1.500", "0.750"]
     assert expected["rq2-homo/worm-s0+s1"] == ["reassemble", "done", "-", "-", "0.250"]
     assert f"{len(expected) - 4} queued" in out
+    # Seed 0's last run first: the partial re-optimisation waits for the runs it needs.
+    following = re.search(r"next to start: (\S+), \S+, \S+ and (\d+) more", " ".join(out.split()))
+    assert following.group(1) == "ablation/biped-s0"
+    assert int(following.group(2)) == len(expected) - 3 - 3  # two done, one running
     # The unit whole on its own line, however narrow the table (it once wrapped mid-phrase).
     assert "v_x in m/s" in [line.strip() for line in out.splitlines()]
 
@@ -253,12 +257,15 @@ def test_status_says_the_time_left_at_the_runs_pace(tmp_path, capsys, monkeypatc
     assert ("1 done, 2 running, 0 partial, 1 queued; 34.2% of 4.15e+09 robot-control-steps; "
             "left at the runs' recent pace: ~11.5 h one task at a time, ~5.8 h 2 at a time"
             ) in out
+    assert out.endswith("next to start: ablation/worm-s0")
     # Stopped, the same time left, one task at a time only; finished, no estimate at all.
     for run in ("rq1/worm-s0", "ablation/biped-s0"):
         (root / run / LOCK_NAME).unlink()
     out = " ".join(_output(capsys, monkeypatch, ["campaign", "status", str(root)]).split())
-    assert out.endswith("left at the runs' recent pace: ~11.5 h one task at a time")
+    assert out.endswith("left at the runs' recent pace: ~11.5 h one task at a time next to "
+                        "start: rq1/worm-s0, ablation/biped-s0, ablation/worm-s0")
     for run in ("rq1/worm-s0", "ablation/biped-s0", "ablation/worm-s0"):
         _done(root / run)
     out = _output(capsys, monkeypatch, ["campaign", "status", str(root)])
     assert "left at" not in out and seconds_left(doc, states(root, doc)) == 0
+    assert "next to start" not in out

@@ -14,6 +14,8 @@ from ..errors import bad
 HELP = ("Run a campaign of experiments (a built-in, which `somite campaign list` lists, or a "
         "TOML file) on Dask; list the built-ins; show a campaign directory's tasks; pack a "
         "campaign's resumable state into one file and unpack it elsewhere.")
+NEXT_SHOWN = 3
+"""How many of the tasks next to start ``campaign status`` names."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -262,7 +264,23 @@ def _status(args: argparse.Namespace) -> int:
     console.print(", ".join(f"{n} {k}" for k, n in now.counts.items()) +
                   f"; {now.fraction:.1%} of {now.steps[1]:.3g} robot-control-steps" +
                   _time_left(seconds_left(doc, infos), now.counts["running"]))
+    following = _next(directory, doc, infos)
+    if following:
+        console.print(following)
     return 0
+
+
+def _next(directory: Path, doc: dict, infos: list[dict], shown: int = NEXT_SHOWN) -> str:
+    """The tasks neither finished nor running, in the order a ``campaign run --resume`` starts
+    them (the runs begun first, then seed by seed), the first ``shown`` of them by name."""
+    from ..campaigns.executor import priorities, submission_order
+
+    waiting = [t for t, i in zip(doc["tasks"], infos) if i["state"] in ("partial", "queued")]
+    if not waiting:
+        return ""
+    order = [t["id"] for t in submission_order(waiting, priorities(directory, waiting))]
+    more = f" and {len(order) - shown} more" if len(order) > shown else ""
+    return f"next to start: {', '.join(order[:shown])}{more}"
 
 
 def _time_left(seconds: float | None, running: int) -> str:

@@ -158,9 +158,11 @@ def test_begun_runs_start_before_new_ones_then_seed_by_seed(tmp_path):
         "rq1/biped-s1", "ablation/worm-s1",
         "rq1/worm-s2", "ablation/biped-s2", "ablation/worm-s2"]
     assert sorted(grown.values()) == list(range(1, len(tasks) + 1))
-    # An experiment's folder begins no run.
-    (tmp_path / "rq1" / "worm-s2").mkdir(exist_ok=True)
-    assert priorities(tmp_path, tasks)["rq1/worm-s0"] < priorities(tmp_path, tasks)["rq1/worm-s2"]
+    # rq1/ and ablation/ exist, yet rq1/worm-s0 waits above: an experiment's folder begins no
+    # run; a run's own folder does.
+    (tmp_path / "rq1" / "worm-s2").mkdir()
+    again = priorities(tmp_path, tasks)
+    assert again["rq1/worm-s2"] > again["rq1/worm-s0"]
 
 
 def test_tasks_built_on_runs_belong_to_their_latest_seed(tmp_path):

@@ -201,7 +201,7 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
 def priorities(directory: Path, tasks: list[dict]) -> dict[str, int]:
     """Each unfinished task's Dask priority (higher starts first; Dask's own order is not the
     campaign's): the tasks already begun (their folder exists), in the campaign's order, then
-    the others seed by seed (:func:`replicate`), each seed in the campaign's order. So a
+    the others seed by seed (:func:`replicates`), each seed in the campaign's order. So a
     campaign of several seeds completes every experiment's seed 0, then every experiment's
     seed 1, ...: stopped part-way (machine time runs out), it holds the same number of finished
     seeds of every experiment, which a comparison between experiments needs, and few partial

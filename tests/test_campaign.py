@@ -189,6 +189,32 @@ def test_tasks_built_on_runs_belong_to_their_latest_seed(tmp_path):
         assert all(submitted.index(n) < submitted.index(task["id"]) for n in task["needs"])
 
 
+def test_a_task_is_handed_out_when_a_thread_is_free_and_its_needs_have_run():
+    """The campaign, not Dask, decides what starts next: at most as many tasks as free threads,
+    the earliest in the campaign's order first, skipping over (not waiting behind) a task whose
+    needs are still running; a task whose need failed, and the tasks built on it, never run."""
+    from somite.campaigns.executor import Execution, skippable, startable
+
+    def task(name, *needs):
+        return {"id": name, "needs": list(needs)}
+
+    a, b, c, d = task("a"), task("b"), task("c", "a"), task("d", "c")
+    e, gone = task("e"), task("f", "finished-before")  # a need not in the campaign has run
+    waiting = [a, b, c, d, e, gone]
+    none = Execution()
+    assert startable(waiting, none, 0) == [] and startable(waiting, none, -1) == []
+    assert startable(waiting, none, 2) == [a, b]
+    begun = Execution(started=["a", "b"])
+    assert startable([c, d, e, gone], begun, 1) == [e]  # c waits for a, d for c
+    assert startable([c, d, e, gone], begun, 5) == [e, gone]
+    a_ran = Execution(started=["a", "b"], ran=["a"])
+    assert startable([c, d, e], a_ran, 2) == [c, e]
+    assert skippable([c, d, e], a_ran) == []
+    a_failed = Execution(started=["a", "b"], failed={"a": "RuntimeError: boom"})
+    assert startable([c, d, e], a_failed, 3) == [e]
+    assert skippable([c, d, e], a_failed) == [c, d]
+
+
 def test_variants_are_a_dimension_of_the_grid():
     campaign = parse({"defaults": {"generations": 5}, "experiments": {
         "w": {"kind": "evolve", "shapes": ["worm"], "seeds": [4, 5],
@@ -430,6 +456,44 @@ def test_a_resumed_campaign_finishes_its_begun_run_before_it_starts_new_ones(tmp
                 for run in ("first/worm-s0", "first/worm-s1", "later/worm-s0")}
     assert sorted(finished, key=finished.get) == ["later/worm-s0", "first/worm-s0",
                                                   "first/worm-s1"]
+
+
+ONE_LONG_RUN_AND_SHORT_ONES = """
+[defaults]
+generations = 1
+population = 4
+duration = 1.0
+validate_every = 1
+[experiments.long]
+kind = "evolve"
+shapes = ["worm"]
+seeds = [0]
+options = { generations = 16, duration = 4.0 }
+[experiments.short]
+kind = "evolve"
+shapes = ["worm"]
+seeds = [0, 1, 2, 3]
+"""
+
+
+def test_runs_start_in_the_campaigns_order_on_whichever_worker_frees_up(tmp_path):
+    """Two workers, one long run and four short ones: the short runs start one after another,
+    seed by seed, on the worker the long run leaves free (handed to Dask all at once, each
+    would wait in one worker's queue, some behind the long run, while later seeds ran)."""
+    spec = tmp_path / "order.toml"
+    spec.write_text(ONE_LONG_RUN_AND_SHORT_ONES)
+    out = tmp_path / "campaign"
+    result = _run("campaign", "run", str(spec), "--out", str(out), "--workers", "2",
+                  "--threads", "1", "--quiet")
+    assert result.returncode == 0, result.stderr
+
+    def when(run, name):
+        return (out / run / name).stat().st_mtime_ns
+
+    short = [f"short/worm-s{seed}" for seed in range(4)]
+    started = sorted(short, key=lambda run: when(run, "config.json"))
+    assert started == short
+    assert when(short[-1], "done.json") < when("long/worm-s0", "done.json")
 
 
 def test_a_killed_worker_is_replaced_and_its_run_resumes(tmp_path):

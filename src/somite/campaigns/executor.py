@@ -1,10 +1,11 @@
 """Running a campaign's tasks on Dask distributed: a LocalCluster, or an existing scheduler.
 
-Every unfinished task is one Dask task (:func:`~.work.run_task`), submitted with the futures
-of the tasks it needs, so that it starts when they are finished. A task whose worker dies is
-rescheduled by Dask, and one that fails is retried (``retries``): either way it runs again and
-resumes from what is on disk. Tasks carry the campaign directory's absolute path, so workers on
-other machines need the same path to it (a shared file system).
+Every unfinished task is one Dask task (:func:`~.work.run_task`), handed to Dask when a
+worker thread is free for it and the tasks it needs have finished, in the campaign's order
+(:func:`priorities`); a cluster that grows or shrinks gets more or fewer at once. A task
+whose worker dies is rescheduled by Dask, and one that fails is retried (``retries``): either
+way it runs again and resumes from what is on disk. Tasks carry the campaign directory's
+absolute path, so workers on other machines need the same path to it (a shared file system).
 
 Sizing: a task is single-process Numba code whose Python between kernel calls (3% of a
 generation) leaves threads idle, so by default each core gets a worker process of its own with
@@ -41,6 +42,7 @@ class Execution:
     ran: list[str] = field(default_factory=list)
     failed: dict[str, str] = field(default_factory=dict)
     skipped: list[str] = field(default_factory=list)
+    started: list[str] = field(default_factory=list)
     wall_s: float = 0.0
     dashboard: str = ""
 
@@ -158,38 +160,42 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
     if own:
         connection = Connection(scheduler, workers)
     client, cluster = connection.client, connection.cluster
-    futures = {}
+    from distributed import wait
+
+    running: dict[str, object] = {}
     try:
         outcome.dashboard = dashboard_link(client, cluster is not None)
         token = uuid.uuid4().hex[:8]  # a scheduler may hold another campaign's tasks
-        priority = priorities(directory, tasks)
-        # Submitted in that order too: Dask hands a task to an idle worker as it arrives,
-        # before a later one of higher priority.
-        for task in submission_order(tasks, priority):
-            needs = [futures[n] for n in task["needs"] if n in futures]
-            futures[task["id"]] = client.submit(
-                run_task, str(directory), task, threads, *needs, key=f"{task['id']}@{token}",
-                pure=False, retries=retries, priority=priority[task["id"]])
-        needs = {t["id"]: t["needs"] for t in tasks}
-        pending = dict(futures)
-        while pending:
-            for task_id, future in list(pending.items()):
-                if not future.done():
-                    continue
-                del pending[task_id]
-                if future.status == "finished":
-                    outcome.ran.append(task_id)
-                elif any(n in outcome.failed or n in outcome.skipped for n in needs[task_id]):
-                    outcome.skipped.append(task_id)
-                else:
-                    outcome.failed[task_id] = _reason(future)
+        waiting = submission_order(tasks, priorities(directory, tasks))
+        while waiting or running:
+            for task_id, future in list(running.items()):
+                if future.done():
+                    del running[task_id]
+                    if future.status == "finished":
+                        outcome.ran.append(task_id)
+                    else:
+                        outcome.failed[task_id] = _reason(future)
+            for task in startable(waiting, outcome, slots(client) - len(running)):
+                waiting.remove(task)
+                outcome.started.append(task["id"])
+                running[task["id"]] = client.submit(
+                    run_task, str(directory), task, threads, key=f"{task['id']}@{token}",
+                    pure=False, retries=retries)
+            for task in skippable(waiting, outcome):
+                waiting.remove(task)
+                outcome.skipped.append(task["id"])
             outcome.wall_s = time.perf_counter() - start
             if watch is not None:
                 watch(outcome)
-            if pending:
+            if running:  # back as soon as one finishes, to hand its thread the next task
+                try:
+                    wait(list(running.values()), timeout=0.5, return_when="FIRST_COMPLETED")
+                except TimeoutError:
+                    pass
+            elif waiting:
                 time.sleep(0.5)
     except BaseException:
-        client.cancel(list(futures.values()))
+        client.cancel(list(running.values()))
         raise
     finally:
         if own:
@@ -198,9 +204,50 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
     return outcome
 
 
+def slots(client) -> int:
+    """How many tasks the cluster runs at once now: its workers' threads (a task is one
+    thread of Dask's; its Numba threads are its own), at least 1, so that a cluster whose
+    workers have not joined yet holds the next task for the first of them."""
+    try:
+        return max(1, sum(client.nthreads().values()))
+    except Exception:  # noqa: BLE001 - a scheduler that does not answer now: one at a time
+        return 1
+
+
+def startable(waiting: list[dict], outcome: Execution, free: int) -> list[dict]:
+    """The tasks to hand to Dask now: the first ``free`` of ``waiting`` (in the order to
+    start them) whose needs have all run, a need outside the campaign's unfinished tasks
+    counting as run. Dask itself would give each worker a queue of its own at submission and
+    start a later task on a worker that frees up before an earlier one queued on a busy
+    worker, so the campaign hands out a task only when a thread is free for it."""
+    if free <= 0:
+        return []
+    ran = set(outcome.ran)
+    pending = {t["id"] for t in waiting} | set(outcome.started) - ran
+    chosen = []
+    for task in waiting:
+        if all(n in ran or n not in pending for n in task["needs"]):
+            chosen.append(task)
+            if len(chosen) == free:
+                break
+    return chosen
+
+
+def skippable(waiting: list[dict], outcome: Execution) -> list[dict]:
+    """The tasks that will never run: a task they need failed, or was skipped (in order, so
+    that a chain of needs is skipped at once)."""
+    lost = set(outcome.failed) | set(outcome.skipped)
+    skipped = []
+    for task in waiting:
+        if any(n in lost for n in task["needs"]):
+            lost.add(task["id"])
+            skipped.append(task)
+    return skipped
+
+
 def priorities(directory: Path, tasks: list[dict]) -> dict[str, int]:
-    """Each unfinished task's Dask priority (higher starts first; Dask's own order is not the
-    campaign's): the tasks already begun (their folder exists), in the campaign's order, then
+    """Each unfinished task's rank in the order the campaign starts them (higher first):
+    the tasks already begun (their folder exists), in the campaign's order, then
     the others seed by seed (:func:`replicates`), each seed in the campaign's order. So a
     campaign of several seeds completes every experiment's seed 0, then every experiment's
     seed 1, ...: stopped part-way (machine time runs out), it holds the same number of finished

@@ -25,10 +25,10 @@ from .layout import DONE, read_done
 __all__ = ["DONE", "run_config", "run_task"]
 
 
-def run_task(directory: str, task: dict, threads: int = 1, *needed) -> dict:
+def run_task(directory: str, task: dict, threads: int = 1) -> dict:
     """Run ``task`` of the campaign in ``directory`` with ``threads`` Numba threads, unless it
-    is finished; returns its ``done.json``. ``needed`` (the results of the tasks it needs) is
-    how Dask orders it after them, and is not used."""
+    is finished (the campaign starts it once the tasks it needs are); returns its
+    ``done.json``."""
     out = Path(directory) / task["path"]
     done = out / DONE
     record = read_done(out)

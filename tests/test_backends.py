@@ -7,108 +7,89 @@ import json
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from somite import evolve_lockstep
 from somite.cli import main
 from somite.experiments.config import resolve
 from somite.experiments.runner import evolve
-from somite.tasks.backends import BACKENDS, check_backend, cuda_unavailable
-
-from .conftest import expect_error
-
-# Two robots of different bodies and controllers, on their own hilly terrains, under both presets
-# (the paper's for 0.5 s: they land at 0.43-0.45 s; the original code's sensors for 0.1 s, as the
-# simulator is slow: 1.2 s a robot and control step): the CPU kernel called directly against the
-# backend named in argv[1] through the registry (cuda: run by numba-cuda's simulator, plain
-# Python, one thread per robot, as CI has no GPU), and against the Python stepper
-# (somite.Episode), which runs the same start / control_step code and must agree bit for bit.
-_BACKEND_SCRIPT = """
-import json, sys, warnings
-import numpy as np
-from somite.bench import random_graph
-from somite.sim.body import Body
 from somite.sim.config import pack_params, preset
 from somite.sim.sensors import noise_table
-from somite.sim.system import compile_system
-from somite.sim.terrain import hilly
-from somite.tasks.backends import BACKENDS
-from somite.tasks.episode import new_trace
+from somite.tasks.backends import BACKENDS, check_backend, cuda_unavailable
+from somite.tasks.episode import Trace, new_trace
 from somite.tasks.lanes import run_batch
-from somite.tasks.locomotion import compile_controllers, outcomes, run
+from somite.tasks.locomotion import outcomes
 from somite.tasks.stepper import Episode
 
-name = sys.argv[1]
-reason = BACKENDS[name].unavailable()
-if reason:
-    print(json.dumps({"unavailable": reason}))
-    sys.exit(0)
-warnings.simplefilter("ignore", RuntimeWarning)  # uint64 hashing wraps, as it does compiled
-rng = np.random.default_rng(1)
-bodies = [Body.build("worm"), Body.build("biped")]
-graphs = [random_graph(body, 40, rng) for body in bodies]
-terrains = [hilly(1.0, 10.0, 7), hilly(1.0, 10.0, 8)]
-system = compile_system(bodies, terrains)
-ctrl = compile_controllers(graphs, [b.shape.n_voxels for b in bodies])
-seeds = np.array([11, 12], dtype=np.uint64)
+from .backend_batch import CASES, batch, run_cases
+from .conftest import expect_error
 
 
-def gap(a, b):
+def _gap(a, b) -> float:
     # Equal infinities, and NaN in both at the same place (diagnostics not measured yet), count
     # as equal; NaN in one only as infinitely far.
     same = (a == b) | (np.isnan(a) & np.isnan(b))
-    return float(np.nan_to_num(np.where(same, 0.0, np.abs(a - b)), nan=np.inf).max())
+    with np.errstate(invalid="ignore"):  # inf - inf, masked by ``same``
+        far = np.abs(a - b)
+    return float(np.nan_to_num(np.where(same, 0.0, far), nan=np.inf).max())
 
 
-result = {}
-for preset_name, duration in (("paper", 0.5), ("original-code", 0.1)):
-    config = preset(preset_name, duration=duration)
-    cpu = new_trace(2, config.n_steps, system, True)
-    run_batch(system, ctrl, pack_params(config), noise_table(config), seeds, config.n_steps, cpu)
-    other = run(system, ctrl, config, seeds, backend=name)
-    stepped = Episode(graphs, terrains, config, seeds.tolist(), record=True, bodies=bodies).run()
-    result[preset_name] = {
-        "stepper": all(np.array_equal(a, b, equal_nan=True) for a, b in zip(cpu, stepped)),
-        # Steps with a block on the ground, per robot.
-        "landed": cpu.contact.any(axis=2).sum(axis=1).tolist(),
-        "cpu": [o.velocity for o in outcomes(cpu, config)],
-        "cpu_min_area": cpu.min_area.tolist(),
-        "backend": [o.velocity for o in outcomes(other, config)],
-        "com": float(np.abs(cpu.com - other.com).max()),
-        "status": [cpu.status.tolist(), other.status.tolist()],
-        "fields": {f: gap(getattr(cpu, f), getattr(other, f))
-                   for f in ("max_speed", "min_area", "diagnostics", "non_finite")},
-    }
-if name == "cuda":  # its own table of the System fields indexed by terrain
-    from somite.sim.system import System
-    from somite.tasks.cuda_batch import TERRAIN_FIELDS
-    result["terrain_fields"] = sorted(TERRAIN_FIELDS) == sorted(
-        f for f in System._fields if f.startswith("terrain_") and f != "terrain_of")
-print(json.dumps(result))
-"""
+def _backend_traces(name: str, tmp_path: Path) -> dict[str, Trace]:
+    """The batch's traces on backend ``name``: here for the CPU's; in a process of its own
+    under numba-cuda's simulator for the others (CI has no GPU)."""
+    if name == "cpu":
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # uint64 hashing wraps
+            return run_cases(name)
+    out = tmp_path / f"{name}.npz"
+    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
+    done = subprocess.run([sys.executable, "-m", "tests.backend_batch", name, str(out)],
+                          env=env, cwd=Path(__file__).parents[1], capture_output=True,
+                          text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    said = json.loads(done.stdout.splitlines()[-1])
+    if "unavailable" in said:
+        pytest.skip(f"backend {name!r} cannot run here: {said['unavailable']}")
+    with np.load(out) as saved:
+        if "terrain_fields" in saved:
+            assert bool(saved["terrain_fields"])
+        return {p: Trace(**{f: saved[f"{p}.{f}"] for f in Trace._fields}) for p, _ in CASES}
 
 
 @pytest.mark.parametrize("name", list(BACKENDS))
-def test_every_backend_gives_the_cpu_kernels_numbers(name):
-    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
-    done = subprocess.run([sys.executable, "-c", _BACKEND_SCRIPT, name], env=env,
-                          capture_output=True, text=True, timeout=600)
-    assert done.returncode == 0, done.stderr[-2000:]
-    results = json.loads(done.stdout.splitlines()[-1])
-    if "unavailable" in results:
-        pytest.skip(f"backend {name!r} cannot run here: {results['unavailable']}")
-    assert results.pop("terrain_fields", True)
-    assert min(results["paper"]["landed"]) > 0  # the contacts are compared too
-    for result in results.values():
-        assert result["stepper"]
-        assert result["status"] == [[0, 0], [0, 0]]
-        assert result["cpu"] == pytest.approx(result["backend"], abs=1e-9)
+def test_every_backend_gives_the_cpu_kernels_numbers(name, tmp_path):
+    """The CPU kernel called directly against the backend run through the registry, and
+    against the Python stepper (somite.Episode), which runs the same start / control_step code
+    and must agree bit for bit."""
+    others = _backend_traces(name, tmp_path)
+    bodies, graphs, terrains, system, ctrl, seeds = batch()
+    for preset_name, duration in CASES:
+        config = preset(preset_name, duration=duration)
+        cpu = new_trace(2, config.n_steps, system, True)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # uint64 hashing wraps
+            run_batch(system, ctrl, pack_params(config), noise_table(config), seeds,
+                      config.n_steps, cpu)
+            stepped = Episode(graphs, terrains, config, seeds.tolist(), record=True,
+                              bodies=bodies).run()
+        other = others[preset_name]
+        assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(cpu, stepped))
+        if preset_name == "paper":  # a block on the ground: the contacts are compared too
+            assert cpu.contact.any(axis=2).sum(axis=1).min() > 0
+        assert cpu.status.tolist() == other.status.tolist() == [0, 0]
+        velocities = [o.velocity for o in outcomes(cpu, config)]
+        assert velocities == pytest.approx([o.velocity for o in outcomes(other, config)],
+                                           abs=1e-9)
         # Two different robots (v_x is 0 for both over a run shorter than the transient).
-        assert abs(result["cpu_min_area"][0] - result["cpu_min_area"][1]) > 1e-6
-        assert result["com"] < 1e-9
-        assert all(gap < 1e-9 for gap in result["fields"].values()), result["fields"]
+        assert abs(cpu.min_area[0] - cpu.min_area[1]) > 1e-6
+        assert np.abs(cpu.com - other.com).max() < 1e-9
+        gaps = {f: _gap(getattr(cpu, f), getattr(other, f))
+                for f in ("max_speed", "min_area", "diagnostics", "non_finite")}
+        assert all(gap < 1e-9 for gap in gaps.values()), gaps
 
 
 @pytest.mark.parametrize("name", list(BACKENDS))

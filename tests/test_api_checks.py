@@ -235,7 +235,7 @@ def test_numba_threads_out_of_range_is_one_line(value):
 def test_a_bad_environment_is_one_line_on_the_command_line(variable, value, args):
     env = {**os.environ, variable: value}
     child = subprocess.run([sys.executable, "-m", "somite.cli", *args], env=env,
-                           capture_output=True, text=True, timeout=300)
+                           capture_output=True, text=True, timeout=900)
     assert child.returncode == 2, child.stderr
     assert child.stderr.startswith(f"somite: error: {variable}={value!r}: ")
     assert child.stderr.count("\n") == 1 and "Traceback" not in child.stderr
@@ -502,10 +502,10 @@ def test_a_file_size_limit_stops_a_run_in_one_line_and_it_resumes(tmp_path):
     run = tmp_path / "run"
     args = [sys.executable, "-m", "somite.cli", "evolve", "--shape", "worm", "--population", "4",
             "--generations", "3", "--duration", "1", "--validate-every", "0", "--out", str(run)]
-    child = subprocess.run(args, preexec_fn=limited, capture_output=True, text=True, timeout=600)
+    child = subprocess.run(args, preexec_fn=limited, capture_output=True, text=True, timeout=900)
     assert child.returncode == 2, child.stderr
     assert child.stderr.count("\n") == 1 and "(File too large)" in child.stderr, child.stderr
     resumed = subprocess.run([*args[:3], "evolve", "--resume", "--out", str(run)],
-                             capture_output=True, text=True, timeout=600)
+                             capture_output=True, text=True, timeout=900)
     assert resumed.returncode == 0, resumed.stderr
     assert json.loads((run / "checkpoint.json").read_text())["generation"] == 3

@@ -18,7 +18,7 @@ needs_reference = pytest.mark.skipif(not REFERENCE.exists(),
 
 def run_script(name: str, *args: str) -> dict | list:
     done = subprocess.run([sys.executable, str(ROOT / "benchmarks" / name), *args],
-                          capture_output=True, text=True, cwd=ROOT, timeout=300)
+                          capture_output=True, text=True, cwd=ROOT, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     lines = done.stdout.strip().splitlines()
     if name == "calibrate.py":  # JSON lines

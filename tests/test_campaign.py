@@ -259,7 +259,7 @@ def test_another_campaign_is_refused_and_the_same_needs_resume(tmp_path, capsys)
 # -- running on Dask ----------------------------------------------------------------------------
 
 def _run(*args, **kwargs) -> subprocess.CompletedProcess:
-    return subprocess.run([*SOMITE, *args], capture_output=True, text=True, timeout=300,
+    return subprocess.run([*SOMITE, *args], capture_output=True, text=True, timeout=900,
                           **kwargs)
 
 
@@ -329,7 +329,7 @@ def _free_port() -> int:
         return sock.getsockname()[1]
 
 
-def _wait(predicate, timeout: float = 120.0, every: float = 0.05):
+def _wait(predicate, timeout: float = 600.0, every: float = 0.05):
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         value = predicate()
@@ -519,7 +519,7 @@ def test_a_killed_worker_is_replaced_and_its_run_resumes(tmp_path):
     time.sleep(0.2)
     logged = (run / "log.csv").read_text().splitlines()
     checkpoint = json.loads((run / "checkpoint.json").read_text())["generation"]
-    _, err = process.communicate(timeout=300)
+    _, err = process.communicate(timeout=900)
     assert process.returncode == 0, err
     assert len(logged) - 1 < 31 and (run / "done.json").is_file()
     # Resumed from the checkpoint: the rows before it are those of the killed worker, its

@@ -149,7 +149,7 @@ def test_a_campaign_packed_part_way_and_finished_elsewhere_is_the_uninterrupted_
     # Finished there by `campaign run --resume`, as a user would.
     result = subprocess.run([sys.executable, "-m", "somite.cli", "campaign", "run", "--resume",
                              "--out", str(moved), "--workers", "1", "--quiet"],
-                            capture_output=True, text=True, timeout=600)
+                            capture_output=True, text=True, timeout=900)
     assert result.returncode == 0, result.stderr
     finished, whole = _files(moved), _files(uninterrupted)
     assert set(finished) == set(whole)

@@ -24,7 +24,7 @@ POSES, LIMIT = 3, 4
 
 def run_script(*args: str) -> dict:
     done = subprocess.run([sys.executable, str(ROOT / "benchmarks/closed_loop.py"), *args],
-                          capture_output=True, text=True, cwd=ROOT, timeout=300)
+                          capture_output=True, text=True, cwd=ROOT, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     return json.loads(done.stdout)
 
@@ -153,7 +153,7 @@ def test_the_loop_grid_and_the_reference_floor():
 
 def test_the_grid_needs_its_measurements():
     done = subprocess.run([sys.executable, str(ROOT / "benchmarks/closed_loop.py"),
-                           "--only", "grid"], capture_output=True, text=True, cwd=ROOT, timeout=300)
+                           "--only", "grid"], capture_output=True, text=True, cwd=ROOT, timeout=900)
     assert done.returncode == 2 and "loop-grid.csv (--measured DIR)" in done.stderr
     # stock/ has the grid but not the loops: those come from the shared reference.
     out = run_script("--measured", str(MEASURED / "stock"), "--only", "grid,loops", "--limit", "1")

@@ -142,7 +142,7 @@ def test_resume_after_sigkill_matches_uninterrupted_run(tmp_path):
     assert main([*args, "--out", str(tmp_path / "whole")]) == 0
     killed = tmp_path / "killed"
     child = subprocess.Popen([sys.executable, "-m", "somite.cli", *args, "--out", str(killed)])
-    deadline = time.time() + 120
+    deadline = time.time() + 600
     while time.time() < deadline and child.poll() is None:
         log = killed / "log.csv"
         if (killed / "checkpoint.json").exists() and log.exists():

@@ -85,7 +85,7 @@ def test_errors_are_one_line(run, tmp_path, capsys):
 def test_end_to_end(run):
     done = subprocess.run([sys.executable, str(ROOT / "benchmarks/ground_gap.py"), str(run),
                            "--terrains", "flat"], capture_output=True, text=True, cwd=ROOT,
-                          timeout=600)
+                          timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     (found,) = json.loads(done.stdout)["runs"]
     cell = found["terrains"]["flat"]

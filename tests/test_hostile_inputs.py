@@ -247,7 +247,7 @@ def test_simulate_json_is_strict(capsys):
 
 def _shell(command: str) -> subprocess.CompletedProcess:
     return subprocess.run(["bash", "-c", f"set -o pipefail; {command}"], capture_output=True,
-                          text=True, timeout=300)
+                          text=True, timeout=900)
 
 
 def test_a_closed_pipe_ends_quietly():

@@ -48,6 +48,6 @@ print(json.dumps(held))
 def test_no_batch_leaves_arrays_behind():
     env = {**os.environ, "NUMBA_NRT_STATS": "1"}
     done = subprocess.run([sys.executable, "-c", _SCRIPT], env=env, capture_output=True,
-                          text=True, timeout=600)
+                          text=True, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     assert json.loads(done.stdout.splitlines()[-1]) == {"batch": 0, "stepper": 0}

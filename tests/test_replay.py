@@ -41,7 +41,7 @@ def browser(tmp_path: Path, *args: str) -> subprocess.CompletedProcess:
                "--disable-extensions", "--hide-scrollbars", "--allow-file-access-from-files",
                f"--user-data-dir={tmp_path / 'profile'}", "--enable-logging=stderr", "--v=0",
                *args]
-    return subprocess.run(command, capture_output=True, text=True, timeout=180)
+    return subprocess.run(command, capture_output=True, text=True, timeout=900)
 
 
 def page_state(tmp_path: Path, page: Path, fragment: str) -> tuple[dict, str]:

@@ -356,7 +356,7 @@ def test_campaign_run_smoke_then_report(tmp_path):
     campaign = tmp_path / "smoke"
     run = subprocess.run([sys.executable, "-m", "somite.cli", "campaign", "run", "smoke",
                           "--out", str(campaign), "--workers", "1", "--threads", "1",
-                          "--quiet"], capture_output=True, text=True, timeout=300)
+                          "--quiet"], capture_output=True, text=True, timeout=900)
     assert run.returncode == 0, run.stderr
     out = tmp_path / "report"
     assert main(["report", str(campaign), "--out", str(out), "--no-timelapse", "--quiet"]) == 0

@@ -38,7 +38,7 @@ def start(out: Path, *extra: str) -> subprocess.Popen:
 
 
 def wait_for(child: subprocess.Popen, ready, what: str) -> None:
-    deadline = time.time() + 180
+    deadline = time.time() + 600
     while not ready():
         assert child.poll() is None, f"the run ended before {what}"
         assert time.time() < deadline, f"timed out waiting for {what}"

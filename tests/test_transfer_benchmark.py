@@ -306,7 +306,7 @@ def test_end_to_end(runs):
     the driver's sensors and on its own."""
     done = subprocess.run([sys.executable, str(ROOT / "benchmarks/transfer.py"), str(runs / "worm"),
                            str(runs / "biped"), "--every", "4", "--from", "0", "--terrains",
-                           "flat"], capture_output=True, text=True, cwd=ROOT, timeout=600)
+                           "flat"], capture_output=True, text=True, cwd=ROOT, timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "sigmoid hidden nodes" in done.stderr and "tanh hidden nodes" in done.stderr
     out = json.loads(done.stdout)
@@ -334,7 +334,7 @@ def test_end_to_end_on_own_sensors(runs):
     done = subprocess.run([sys.executable, str(ROOT / "benchmarks/transfer.py"), str(runs / "worm"),
                            str(runs / "biped"), "--every", "4", "--from", "0", "--terrains",
                            "flat", "--sensors", "own"], capture_output=True, text=True, cwd=ROOT,
-                          timeout=600)
+                          timeout=900)
     assert done.returncode == 0, done.stderr[-2000:]
     assert "code sensors" in done.stderr and "paper sensors" in done.stderr
     out = json.loads(done.stdout)

@@ -21,9 +21,11 @@ import numpy as np
 from somite.bench import random_graph
 from somite.sim.body import Body
 from somite.sim.config import preset
-from somite.sim.system import compile_system
+from somite.sim.system import System, compile_system
 from somite.sim.terrain import hilly
-from somite.tasks.locomotion import compile_controllers
+from somite.tasks.backends import BACKENDS
+from somite.tasks.episode import Trace
+from somite.tasks.locomotion import compile_controllers, run
 
 CASES = (("paper", 0.5), ("original-code", 0.1))
 
@@ -39,17 +41,13 @@ def batch():
     return bodies, graphs, terrains, system, ctrl, np.array([11, 12], dtype=np.uint64)
 
 
-def run_cases(name: str) -> dict[str, object]:
+def run_cases(name: str) -> dict[str, Trace]:
     """Backend ``name``'s trace of the batch under each case's preset."""
-    from somite.tasks.locomotion import run
-
     *_, system, ctrl, seeds = batch()
     return {p: run(system, ctrl, preset(p, duration=d), seeds, backend=name) for p, d in CASES}
 
 
 def main(name: str, out: str) -> None:
-    from somite.tasks.backends import BACKENDS
-
     reason = BACKENDS[name].unavailable()
     if reason:
         print(json.dumps({"unavailable": reason}))
@@ -58,8 +56,7 @@ def main(name: str, out: str) -> None:
     arrays = {f"{p}.{field}": value for p, trace in run_cases(name).items()
               for field, value in trace._asdict().items()}
     if name == "cuda":  # its own table of the System fields indexed by terrain
-        from somite.sim.system import System
-        from somite.tasks.cuda_batch import TERRAIN_FIELDS
+        from somite.tasks.cuda_batch import TERRAIN_FIELDS  # imports numba.cuda: only here
         arrays["terrain_fields"] = np.array(sorted(TERRAIN_FIELDS) == sorted(
             f for f in System._fields if f.startswith("terrain_") and f != "terrain_of"))
     np.savez(out, **arrays)

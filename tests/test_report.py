@@ -17,7 +17,9 @@ from somite.analysis.stats import load_run
 from somite.brain.genome import Genome
 from somite.cli import main
 from somite.experiments.config import resolve
+from somite.report.build import logged_over_validation
 from somite.report.rerun import FRESH_COUNT
+from somite.report.text import number
 from somite.tasks.validation import evaluate, fresh_terrains
 from somite.tasks.velocity import mean_velocity
 
@@ -262,7 +264,18 @@ def test_every_final_best_is_re_run_on_fresh_terrains_under_fresh_noise(campaign
     text = (out / "index.md").read_text()
     assert "And on 20 fresh terrains (hilly-1-10-20000 on" in text
     assert (f"| {robot['task']} | {robot['logged']:.3f} | {robot['validation']:.3f} | "
-            f"{robot['logged_validation']:.3f} | {robot['fresh']:.3f} |") in text
+            f"{robot['logged_validation']:.3f} | {robot['fresh']:.3f} | "
+            f"{number(robot['logged_over_validation'], 2)} |") in text
+    assert all(r["logged_over_validation"] == logged_over_validation(r["logged"], r["validation"])
+               for r in robots)
+
+
+def test_logged_over_validation_is_none_where_validation_measures_nothing():
+    assert logged_over_validation(3.0, 2.0) == 1.5
+    assert logged_over_validation(-0.5, 0.25) == -2.0
+    for validation in (0.0, -0.1, float("nan"), float("inf")):
+        assert logged_over_validation(1.0, validation) is None, validation
+    assert logged_over_validation(float("nan"), 1.0) is None
 
 
 def test_fresh_0_re_runs_on_no_fresh_terrain_and_a_bad_count_is_named(campaign, tmp_path,

@@ -146,6 +146,8 @@ def _validation_rows(campaign, loaded, reruns: dict, fresh: dict) -> list[dict]:
                          "shape": shape_name(loaded.runs[task.id].config["shape"]),
                          "logged": result["logged"], "validation": result["mean"],
                          "logged_validation": result["logged_validation"],
+                         "logged_over_validation": logged_over_validation(result["logged"],
+                                                                          result["mean"]),
                          "terrains": result["terrains"], "velocities": result["velocities"]})
             if task.id in fresh:
                 drawn = fresh[task.id]
@@ -157,6 +159,15 @@ def _validation_rows(campaign, loaded, reruns: dict, fresh: dict) -> list[dict]:
     shapes = evolution.shape_order(r["shape"] for r in rows)
     return sorted(rows, key=lambda r: (experiments.index(r["experiment"]),
                                        shapes.index(r["shape"])))
+
+
+def logged_over_validation(logged: float, validation: float) -> float | None:
+    """How many times its validation v_x a final best's logged v_x is: the share of the logged
+    figure that was the luck of its training draw. None where the validation v_x is not
+    positive and finite: against a robot that stands still or goes back it measures nothing."""
+    if not (math.isfinite(validation) and validation > 0 and math.isfinite(logged)):
+        return None
+    return logged / validation
 
 
 def _under_way(loaded) -> dict:
@@ -196,4 +207,4 @@ def _validation(rows: list[dict], n_terrains: int, inputs: Inputs) -> dict:
     return {"terrains": n_terrains, "robots": rows, "summary": table, "files": files}
 
 
-__all__ = ["build_report"]
+__all__ = ["build_report", "logged_over_validation"]

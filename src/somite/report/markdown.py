@@ -97,12 +97,20 @@ def _validation(report: dict) -> list[str]:
                     "non-finite on a validation terrain"]
                    + (["v_x on fresh terrains", "non-finite on a fresh terrain"] if fresh
                       else []), rows)
+    # Reports written before the ratio was kept have none: no column.
+    ratio = bool(robots) and all("logged_over_validation" in r for r in robots)
     rows = [[r["task"], number(r["logged"]), number(r["validation"]),
              number(r["logged_validation"])] + ([number(r["fresh"])] if fresh else [])
+            + ([number(r["logged_over_validation"], 2)] if ratio else [])
             for r in robots]
     lines += table(["robot", "logged v_x", "validation v_x (re-run)",
                     "validation v_x (run's own log)"]
-                   + (["v_x on fresh terrains"] if fresh else []), rows)
+                   + (["v_x on fresh terrains"] if fresh else [])
+                   + (["logged / validation"] if ratio else []), rows)
+    if ratio:
+        lines += ["logged / validation: how many times its validation v_x a robot's logged v_x "
+                  "is, the share of the logged figure that was its training draw's luck (n/a "
+                  "where the validation v_x is not positive).", ""]
     return lines + images(data["files"], "logged against validation v_x")
 
 

@@ -162,9 +162,9 @@ def _validation_rows(campaign, loaded, reruns: dict, fresh: dict) -> list[dict]:
 
 
 def logged_over_validation(logged: float, validation: float) -> float | None:
-    """How many times its validation v_x a final best's logged v_x is: the share of the logged
-    figure that was the luck of its training draw. None where the validation v_x is not
-    positive and finite: against a robot that stands still or goes back it measures nothing."""
+    """How many times its validation v_x a final best's logged v_x is: above 1 by the luck of
+    its training draw. None where the validation v_x is not positive and finite: against a
+    robot that stands still or goes back it measures nothing."""
     if not (math.isfinite(validation) and validation > 0 and math.isfinite(logged)):
         return None
     return logged / validation

@@ -109,8 +109,8 @@ def _validation(report: dict) -> list[str]:
                    + (["logged / validation"] if ratio else []), rows)
     if ratio:
         lines += ["logged / validation: how many times its validation v_x a robot's logged v_x "
-                  "is, the share of the logged figure that was its training draw's luck (n/a "
-                  "where the validation v_x is not positive).", ""]
+                  "is, above 1 by the luck of its training draw (n/a where the validation v_x "
+                  "is not positive).", ""]
     return lines + images(data["files"], "logged against validation v_x")
 
 

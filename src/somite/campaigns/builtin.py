@@ -6,8 +6,13 @@ RQ1 alone at the paper's budget.
 robot-control-steps and a time estimate); ``smoke`` every stage at a budget of seconds, for
 tests and for trying the machinery out. Only the numbers in :data:`BUDGETS` differ.
 ``paper-rq1`` is RQ1 and the weights-only ablation (section 5.1) at the paper's settings,
-:data:`RQ1_SEEDS` seeds per shape and variant; ``paper-rq1:N`` the same with N seeds (seeds
-0..N-1: the runs of fewer seeds are among them, unchanged). Every experiment declares the
+:data:`RQ1_SEEDS` seeds per shape and variant; ``paper-rq1:N`` and ``paper:N`` the same with N
+seeds (seeds 0..N-1: the runs of fewer seeds are among them, unchanged). ``paper``'s RQ1 and
+ablation runs are ``paper-rq1``'s, so a ``paper-rq1`` folder grows into ``paper:N``
+(:data:`GROWS_FROM`). ``paper``'s experiments are ordered so that its partial results mean
+something early: the stages on RQ1's runs (re-optimised reassembly, homogeneous then
+heterogeneous; module discovery) come before the omega runs, which a campaign starts seed by
+seed. Every experiment declares the
 figures it feeds (:data:`DECLARED_FIGURES`, :mod:`.figures`). :data:`BUILTINS` lists them all.
 """
 
@@ -62,12 +67,6 @@ def structure(budget: dict) -> dict:
         "defaults": dict(budget["defaults"]),
         "experiments": {
             **_rq1(grid),
-            "omega-10": {**grid, "options": {"omega": 10.0},
-                         "title": "Modularity fostered (omega 10)",
-                         "paper": "Section 5.2.4: Figures 8, 9, 10, 11"},
-            "omega-0.1": {**grid, "options": {"omega": 0.1},
-                          "title": "Modularity discouraged (omega 0.1)",
-                          "paper": "Section 5.2.4: Figures 8, 9, 10, 11"},
             "rq2-homo": {"kind": "reassemble", "donors": "rq1", "pairing": "next",
                          "reoptimize": reoptimize,
                          "title": "Homogeneous reassembly (back of run i + front of run i+1)",
@@ -76,13 +75,19 @@ def structure(budget: dict) -> dict:
                            "reoptimize": reoptimize,
                            "title": "Heterogeneous reassembly (biped <-> worm)",
                            "paper": "Section 5.2: Figure 7"},
+            "rq3-discovery": {"kind": "discover", "genomes": "rq1", "b_min": 2, "b_max": 5,
+                              "title": "Automatic module discovery",
+                              "paper": "Section 5.3: Figures 12, 13"},
+            "omega-10": {**grid, "options": {"omega": 10.0},
+                         "title": "Modularity fostered (omega 10)",
+                         "paper": "Section 5.2.4: Figures 8, 9, 10, 11"},
+            "omega-0.1": {**grid, "options": {"omega": 0.1},
+                          "title": "Modularity discouraged (omega 0.1)",
+                          "paper": "Section 5.2.4: Figures 8, 9, 10, 11"},
             "omega-reassembly": {"kind": "reassemble", "donors": ["omega-10", "omega-0.1"],
                                  "pairing": "next", "reoptimize": reoptimize,
                                  "title": "Reassembly of the omega runs",
                                  "paper": "Section 5.2.4: Figures 8, 9"},
-            "rq3-discovery": {"kind": "discover", "genomes": "rq1", "b_min": 2, "b_max": 5,
-                              "title": "Automatic module discovery",
-                              "paper": "Section 5.3: Figures 12, 13"},
             "rq3-reassembly": {"kind": "reassemble", "donors": "rq1", "pairing": "next",
                                "modules_from": "rq3-discovery", "reoptimize": reoptimize,
                                "title": "Reassembly along the discovered modules",
@@ -127,18 +132,30 @@ BUILTINS: dict[str, Callable[[], dict]] = {
 }
 """Every built-in campaign: name -> its campaign file's content."""
 
+SEEDED: dict[str, Callable[[int], dict]] = {
+    "paper": lambda seeds: structure({**BUDGETS["paper"], "seeds": seeds}),
+    "paper-rq1": paper_rq1,
+}
+"""The built-ins that take a count of seeds (``NAME:N``): name -> its content at N seeds."""
+
+GROWS_FROM: dict[str, tuple[str, ...]] = {"paper": ("paper-rq1",)}
+"""Campaign name -> the built-ins whose tasks it holds unchanged (same settings and seeds,
+so the same numbers): a folder of one of these grows into it with ``--resume``, its finished
+runs kept (``paper:3`` over ``paper-rq1``'s folder adds the omega runs and the reassemblies
+beside the 12 runs of RQ1)."""
+
 
 def builtin(name: str) -> Campaign:
-    """The built-in campaign ``name`` (``paper-rq1:N``: ``paper-rq1`` with N seeds)."""
+    """The built-in campaign ``name`` (``paper:N``, ``paper-rq1:N``: with N seeds)."""
     base, _, seeds = name.partition(":")
-    if base not in BUILTINS or (seeds and base != "paper-rq1"):
+    if base not in BUILTINS or (seeds and base not in SEEDED):
         raise bad("campaign", name, f"no such built-in campaign; use one of {list(BUILTINS)} "
-                  "(paper-rq1:N for N seeds) or a .toml file")
+                  f"({', '.join(n + ':N' for n in SEEDED)} for N seeds) or a .toml file")
     if not seeds:
         return parse(BUILTINS[name](), name=name, source=f"builtin:{name}")
     if not seeds.isdigit() or not 1 <= int(seeds) <= 10_000:
-        raise bad("campaign", name, "paper-rq1:N takes a count of seeds N from 1 to 10000")
-    return parse(paper_rq1(int(seeds)), name=base, source=f"builtin:{name}")
+        raise bad("campaign", name, f"{base}:N takes a count of seeds N from 1 to 10000")
+    return parse(SEEDED[base](int(seeds)), name=base, source=f"builtin:{name}")
 
 
 def is_builtin(name: str) -> bool:

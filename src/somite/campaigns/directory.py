@@ -206,8 +206,9 @@ def prepare(directory: str | Path, doc: dict | None, resume: bool, write: bool =
 
     Without ``resume`` a directory must be empty (a campaign there is refused: ``--resume``
     continues it); with it, a campaign there must be this one: the same tasks, or (more
-    seeds, ``paper-rq1:10`` after ``paper-rq1``) every task there unchanged among more, which
-    are added to ``campaign.json`` (``write``), the tasks there resuming as they were."""
+    seeds, ``paper-rq1:10`` after ``paper-rq1``; a larger built-in, ``paper:3`` after
+    ``paper-rq1``) every task there unchanged among more, which are added to ``campaign.json``
+    (``write``), the tasks there resuming as they were."""
     if doc is not None:
         check_document(doc)
     directory = check_output_folder(directory)
@@ -241,10 +242,16 @@ def prepare(directory: str | Path, doc: dict | None, resume: bool, write: bool =
 
 
 def _grows(there: dict, doc: dict) -> bool:
-    """Whether ``doc`` is the campaign ``there`` with tasks added (more seeds), every task of
-    ``there`` in it unchanged."""
+    """Whether ``doc`` is the campaign ``there`` with tasks added (more seeds), or a built-in
+    that holds ``there``'s built-in (``paper`` over ``paper-rq1``, :data:`~.builtin
+    .GROWS_FROM`), every task of ``there`` in it unchanged."""
+    from .builtin import GROWS_FROM
+
     tasks = {t["id"]: t for t in doc["tasks"]}
-    return there.get("name") == doc.get("name") and len(tasks) > len(there["tasks"]) and all(
+    same = there.get("name") == doc.get("name") or (
+        there.get("name") in GROWS_FROM.get(doc.get("name"), ())
+        and str(doc.get("source", "")).startswith("builtin:"))
+    return same and len(tasks) > len(there["tasks"]) and all(
         tasks.get(t["id"]) == t for t in there["tasks"])
 
 

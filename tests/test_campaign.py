@@ -17,10 +17,11 @@ from pathlib import Path
 
 import pytest
 
-from somite.campaigns.builtin import BUDGETS, builtin
+from somite.campaigns.builtin import BUDGETS, BUILTINS, builtin
 from somite.campaigns.expansion import expand
 from somite.campaigns.spec import parse
 from somite.cli import main
+from somite.errors import SomiteError
 from somite.experiments.config import resolve
 from somite.experiments.runner import RUN_FILES
 
@@ -179,7 +180,9 @@ def test_tasks_built_on_runs_belong_to_their_latest_seed(tmp_path):
     by_id = {t["id"]: t for t in paper}
     assert by_id["rq2-homo/worm-s9+s0"]["options"]["seed"] == 0
     rank = priorities(tmp_path, paper)
-    assert rank["rq2-homo/worm-s9+s0"] < min(rank[t["id"]] for t in paper if t["kind"] == "evolve")
+    assert rank["rq2-homo/worm-s9+s0"] < min(rank[t["id"]] for t in paper
+                                             if t["kind"] == "evolve" and seeds[t["id"]] < 9)
+    assert rank["rq2-homo/worm-s9+s0"] < rank["rq1/worm-s9"]
     assert rank["rq2-homo/biped-s0+s1"] > rank["rq1/biped-s2"]
     smoke = expand(builtin("smoke"))
     (tmp_path / "rq2-homo" / "worm-s1+s0").mkdir(parents=True)
@@ -256,6 +259,41 @@ def test_another_campaign_is_refused_and_the_same_needs_resume(tmp_path, capsys)
     assert "--resume" in err
 
 
+def test_the_paper_grows_from_a_paper_rq1_folder_and_starts_with_rq1s_stages(tmp_path, capsys):
+    """``paper:3`` over a ``paper-rq1`` folder keeps its 12 runs as they are and adds the rest
+    (issue 67); the stages on those runs start first, then the omega runs seed by seed. A
+    campaign that does not hold paper-rq1's tasks, or a file merely named ``paper``, does not
+    grow it."""
+    from somite.campaigns.directory import document, prepare, read
+    from somite.campaigns.executor import priorities
+
+    rq1 = builtin("paper-rq1")
+    prepare(tmp_path, document(rq1, expand(rq1)), resume=False)
+    before = read(tmp_path)["tasks"]
+    paper = builtin("paper:3")
+    grown = prepare(tmp_path, document(paper, expand(paper)), resume=True)
+    assert read(tmp_path) == grown and grown["name"] == "paper" and len(grown["tasks"]) == 90
+    assert [t for t in grown["tasks"] if t["experiment"] in ("rq1", "ablation")] == before
+    left = [t for t in grown["tasks"] if t["experiment"] not in ("rq1", "ablation")]
+    rank = priorities(tmp_path, left)
+    first = sorted(rank, key=rank.get, reverse=True)
+    experiments = [task_id.split("/")[0] for task_id in first]
+    assert experiments[:30] == ["rq2-homo"] * 12 + ["rq2-hetero"] * 12 + ["rq3-discovery"] * 6
+    assert first[30:34] == ["omega-10/biped-s0", "omega-10/worm-s0", "omega-0.1/biped-s0",
+                            "omega-0.1/worm-s0"]
+    assert first.index("omega-10/biped-s1") > first.index("omega-0.1/worm-s0")
+
+    for other, name, source in ((tmp_path / "two", "paper:2", None),
+                                (tmp_path / "file", "paper", "paper.toml")):
+        prepare(other, document(rq1, expand(rq1)), resume=False)
+        campaign = builtin(name) if source is None else parse(
+            BUILTINS["paper"](), name="paper", source=source)
+        with pytest.raises(SomiteError, match="not this campaign's"):
+            prepare(other, document(campaign, expand(campaign)), resume=True)
+    assert main(["campaign", "run", "paper:x", "--out", str(tmp_path / "x")]) == 2
+    assert "paper:N takes a count of seeds" in capsys.readouterr().err
+
+
 # -- running on Dask ----------------------------------------------------------------------------
 
 def _run(*args, **kwargs) -> subprocess.CompletedProcess:
@@ -321,6 +359,29 @@ def test_a_finished_campaign_resumes_to_nothing(smoke_run):
     result = _run("campaign", "run", "--resume", "--out", str(smoke_run), "--quiet")
     assert result.returncode == 0, result.stderr
     assert {p: p.stat().st_mtime_ns for p in smoke_run.rglob("*") if p.is_file()} == before
+
+
+def test_a_campaign_grown_from_its_rq1_runs_ends_as_one_run_from_scratch(smoke_run, tmp_path):
+    """The way ``paper:3`` grows from ``paper-rq1``'s folder, at the smoke budget: a folder
+    holding only the finished RQ1 and ablation runs, resumed as the whole campaign, keeps
+    those runs untouched and ends with the same files as the campaign run from scratch."""
+    doc = json.loads((smoke_run / "campaign.json").read_text())
+    kept = [t for t in doc["tasks"] if t["experiment"] in ("rq1", "ablation")]
+    assert 0 < len(kept) < len(doc["tasks"])
+    grown = tmp_path / "grown"
+    for task in kept:
+        shutil.copytree(smoke_run / task["path"], grown / task["path"])
+    part = {**doc, "tasks": kept,
+            "experiments": {k: v for k, v in doc["experiments"].items() if k in ("rq1", "ablation")}}
+    (grown / "campaign.json").write_text(json.dumps(part))
+    before = {p: p.stat().st_mtime_ns for p in grown.rglob("*") if p.is_file()}
+    result = _run("campaign", "run", "smoke", "--resume", "--out", str(grown), "--workers", "2",
+                  "--threads", "1", "--quiet")
+    assert result.returncode == 0, result.stderr
+    assert json.loads((grown / "campaign.json").read_text())["tasks"] == doc["tasks"]
+    assert all(p.stat().st_mtime_ns == t for p, t in before.items()
+               if p.name != "campaign.json")
+    assert _logs(grown) == _logs(smoke_run)
 
 
 def _free_port() -> int:

@@ -3,7 +3,9 @@
 At control step k, with h_0 = 0: a sensor node reads h_k = tanh(reading_k); every other node
 computes h_k = act(sum over its incoming edges of h_{k-1}(source) * w + b): one step of delay per
 edge, the bias summed once per edge, an isolated node giving act(0). Hidden nodes use tanh
-(paper) or the sigmoid (original code); actuators use tanh and drive their voxel.
+(paper) or the sigmoid (original code); actuators use tanh and drive their voxel. A relay node
+(only in a controller compiled with length-dependent delays, :mod:`somite.brain.delays`) keeps
+its sum as it is: with its one edge of weight 1 and bias 0 it is its source one step later.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import numpy as np
 
 from .._jit import uncounted
 from .._math import sigmoid, tanh
-from .kinds import HIDDEN, SENSOR
+from .kinds import HIDDEN, RELAY, SENSOR
 
 
 class Graph(NamedTuple):
@@ -62,6 +64,8 @@ def graph_step(graph, h_prev, h_next, readings, actuation, hidden_sigmoid):
                 h_next[n] = sigmoid(h_next[n])
             else:
                 h_next[n] = tanh(h_next[n])
+        elif kind == RELAY:
+            continue
         else:
             h_next[n] = tanh(h_next[n])
             actuation[node_ref[n]] = h_next[n]

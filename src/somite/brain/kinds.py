@@ -21,4 +21,9 @@ KIND_DTYPE = np.int32
 KIND_CODE = {name: code for code, name in enumerate(NODE_KINDS)}
 """Kind name -> code."""
 
-__all__ = ["ACTUATOR", "HIDDEN", "KIND_CODE", "KIND_DTYPE", "NODE_KINDS", "SENSOR"]
+RELAY = len(NODE_KINDS)
+"""The code of a relay node, which only a compiled controller holds, never a genome: one step of
+an edge's extra delay (:mod:`somite.brain.delays`). Its value is its one incoming edge's sum,
+passed on unchanged (no activation)."""
+
+__all__ = ["ACTUATOR", "HIDDEN", "KIND_CODE", "KIND_DTYPE", "NODE_KINDS", "RELAY", "SENSOR"]

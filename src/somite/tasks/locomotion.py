@@ -15,7 +15,7 @@ import numpy as np
 from .. import checks
 from ..brain.control import Controller, Controllers, compile_controllers
 from ..brain.controllers import GraphArrays
-from ..brain.kinds import ACTUATOR, HIDDEN, SENSOR
+from ..brain.kinds import ACTUATOR, HIDDEN, RELAY, SENSOR
 from ..budget import check_batch
 from ..errors import bad
 from ..limits import MAX_BATCH
@@ -223,7 +223,7 @@ def check_fits(field: str, controller, body: Body) -> None:
     kind, ref = np.asarray(controller.node_kind), np.asarray(controller.node_ref)
     n_nodes = len(kind)
     counts = {SENSOR: body.n_readings, ACTUATOR: body.shape.n_voxels}
-    if len(ref) != n_nodes or not np.isin(kind, (SENSOR, HIDDEN, ACTUATOR)).all():
+    if len(ref) != n_nodes or not np.isin(kind, (SENSOR, HIDDEN, ACTUATOR, RELAY)).all():
         raise bad(field, "a graph controller", "node kinds and references differ in length "
                   "or hold an unknown kind")
     for code, count in counts.items():

@@ -7,6 +7,7 @@
 #
 #   source $VSR/env.sh     # a build of the 2D-VSR-Sim driver with classes-main-sensors (README)
 #   sh reports/paper-rq1/check-finished.sh rq1/worm-s1 [TASK ...]
+#   CAMPAIGN=reports/paper/campaign sh reports/paper-rq1/check-finished.sh omega-10/worm-s0
 #
 # Writes campaign/transfer.csv (merged: a task's rows replaced) and campaign/checks/NAME-*.json
 # (NAME: the task with / as -; the pack carries them); refuses a task that has not finished,
@@ -14,7 +15,7 @@
 # transfer.csv rows again to every digit.
 set -e
 cd "$(dirname "$0")/../.."
-C=reports/paper-rq1/campaign
+C=${CAMPAIGN:-reports/paper-rq1/campaign}
 PY=.venv/bin/python
 : "${VSR:?set VSR to the 2D-VSR-Sim driver build (source its env.sh)}"
 [ "$#" -gt 0 ] || { echo "usage: $0 TASK [TASK ...]  (e.g. rq1/worm-s1)" >&2; exit 2; }

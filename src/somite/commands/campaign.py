@@ -8,6 +8,7 @@ import time
 from pathlib import Path
 
 from ..errors import bad
+from .common import finite_float
 
 # The built-ins' names are `campaign list`'s to give: importing the campaigns here would load
 # the simulator for every command's --help.
@@ -22,8 +23,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", required=True, parser_class=type(parser))
     run = sub.add_parser("run", help="run (or --resume) a campaign into a directory")
     run.add_argument("campaign", nargs="?",
-                     help="a built-in campaign (`somite campaign list`; paper-rq1:N for N "
-                     "seeds) or a campaign TOML file; with --resume it may be left out")
+                     help="a built-in campaign (`somite campaign list`; paper:N and paper-rq1:N "
+                     "for N seeds; paper:N grows a paper-rq1 folder with --resume) or a "
+                     "campaign TOML file; with --resume it may be left out")
     run.add_argument("--out", required=True, help="campaign directory")
     run.add_argument("--resume", action="store_true",
                      help="continue the campaign in --out: finished tasks are skipped, "
@@ -60,10 +62,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     unpack = sub.add_parser(
         "unpack", help="restore a campaign directory from a pack",
         description="Restore a campaign directory from a file `somite campaign pack` wrote; "
-        "`somite campaign run --resume --out DIR` then continues it.")
+        "`somite campaign run --resume --out DIR` then continues it. A pack is checked as it "
+        "is read (a damaged or crafted one is refused, nothing written), and unpacks to at "
+        "most --max-gib GiB.")
     unpack.add_argument("pack", help="pack file")
     unpack.add_argument("--out", required=True, help="campaign directory to create (new or "
                         "empty)")
+    unpack.add_argument("--max-gib", type=finite_float("max-gib"), default=2.0, metavar="GIB",
+                        help="the most the pack's files may add up to, in GiB (default 2; "
+                        "the paper's campaign is 0.03)")
     unpack.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
@@ -89,9 +96,11 @@ def _pack(args: argparse.Namespace) -> int:
 
 
 def _unpack(args: argparse.Namespace) -> int:
-    from ..campaigns.pack import unpack
+    from ..campaigns.unpack import unpack
 
-    index = unpack(args.pack, args.out, _say(args.quiet))
+    if not 0 < args.max_gib <= 2**20:
+        raise bad("max-gib", args.max_gib, "must be above 0 and at most 1048576 (1 PiB)")
+    index = unpack(args.pack, args.out, _say(args.quiet), max_bytes=int(args.max_gib * 2**30))
     if not args.quiet:
         print(f"campaign {index.get('campaign')!r} in {args.out} ({len(index['files'])} "
               f"files); `somite campaign run --resume --out {args.out}` continues it")

@@ -12,6 +12,9 @@ File format (JSON, strict: no NaN or Infinity)::
      "nodes": [{"id": 0, "x": 0, "y": 0, "kind": "sensor", "slot": 0}, ...],
      "edges": [{"src": 0, "dst": 2, "weight": 0.31, "bias": -0.72}, ...]}
 
+A genome with length-dependent delays (:mod:`somite.brain.delays`) also holds
+``"delay_per_voxel": s``; one without holds no such key.
+
 The compact form for logs has the same keys on one line, with each node written as
 ``[id, x, y, kind, slot]`` (slot null unless a sensor) and each edge as ``[src, dst, w, b]``.
 """
@@ -33,6 +36,7 @@ from ..errors import bad
 from ..formats import GENOME, known_keys
 from ..limits import MAX_WEIGHT
 from ..sim.body import Body
+from .delays import check_delay_per_voxel
 from .kinds import ACTUATOR, HIDDEN, KIND_CODE, KIND_DTYPE, NODE_KINDS, SENSOR
 
 
@@ -144,10 +148,16 @@ class Genome:
     body: Body
     nodes: tuple[Node, ...]
     edges: tuple[Edge, ...]
+    delay_per_voxel: float = 0.0
+    """Control steps of delay per voxel of an edge's length (:mod:`somite.brain.delays`); 0, the
+    default, is the paper's one step for every edge. A genome carries it, so that it runs the
+    same wherever it is evaluated; its file holds it only when it is not 0."""
 
     def __post_init__(self) -> None:
         if not isinstance(self.body, Body):
             raise bad("body", type(self.body).__name__, "expected a somite Body")
+        object.__setattr__(self, "delay_per_voxel",
+                           check_delay_per_voxel("delay_per_voxel", self.delay_per_voxel))
         # Accept lists for convenience; the stored form must be hashable.
         object.__setattr__(self, "nodes", tuple(self.nodes))
         object.__setattr__(self, "edges", tuple(self.edges))
@@ -196,19 +206,24 @@ class Genome:
             "body": self.body.to_dict(),
             "nodes": [n.to_dict() for n in self.nodes],
             "edges": [e.to_dict() for e in self.edges],
+            **self._delay_dict(),
         }
+
+    def _delay_dict(self) -> dict:
+        # Only when set: the paper's genomes keep the files (and digests) they always had.
+        return {"delay_per_voxel": self.delay_per_voxel} if self.delay_per_voxel else {}
 
     @classmethod
     def from_dict(cls, data: dict) -> Genome:
         """Inverse of :meth:`to_dict`; also reads the compact form's list rows."""
         GENOME.check(data)
-        known_keys(data, ("format", "version", "body", "nodes", "edges"), "")
+        known_keys(data, ("format", "version", "body", "nodes", "edges", "delay_per_voxel"), "")
         if "body" not in data:
             raise bad("body", None, "a genome file needs the body it was evolved for")
         body = Body.from_dict(data["body"])
         nodes = [_node_from(item, i) for i, item in enumerate(_rows(data, "nodes"))]
         edges = [_edge_from(item, i) for i, item in enumerate(_rows(data, "edges"))]
-        return cls(body, tuple(nodes), tuple(edges))
+        return cls(body, tuple(nodes), tuple(edges), data.get("delay_per_voxel", 0.0))
 
     def to_compact(self) -> str:
         """One line of JSON for logs; :meth:`from_compact` reads it back exactly."""

@@ -7,6 +7,7 @@ import math
 import sys
 
 from .._io import check_output_folder
+from ..brain.delays import MAX_EDGE_DELAY
 from ..errors import bad
 from ..evolution.config import GAConfig
 from ..evolution.ea import GraphEA
@@ -67,6 +68,13 @@ def add_evolution_options(parser: argparse.ArgumentParser,
     parser.add_argument("--modules",
                         help="partition for omega: paper, worm-halves, biped-legs, a grid "
                         "or a partition.json (default paper)")
+    parser.add_argument("--distance-bias", type=finite_float("distance_bias"), metavar="K",
+                        help="beyond the paper: add_edge weighs a pair of nodes d voxels apart "
+                        "by exp(-K d), on top of omega (default 0: no bias)")
+    parser.add_argument("--delay-per-voxel", type=finite_float("delay_per_voxel"), metavar="S",
+                        help="beyond the paper: an edge d voxels long is delayed by "
+                        f"max(1, ceil(S d)) control steps, at most {MAX_EDGE_DELAY} (default 0: "
+                        "one step per edge, the paper's); the genomes carry it")
     parser.add_argument("--weights-only", action="store_true", default=None,
                         help="the ablation: only weight mutation (p_mutate_edge 1, others 0)")
     parser.add_argument("--reevaluate-parents", action=argparse.BooleanOptionalAction,
@@ -90,7 +98,7 @@ def add_evolution_options(parser: argparse.ArgumentParser,
 
 _OPTIONS = ("preset", "shape", "sensors", "generations", "population", "seed", "terrain",
             "duration", "evaluations", "validate_every", "omega", "modules", "weights_only",
-            "reevaluate_parents", "checkpoint_every")
+            "reevaluate_parents", "checkpoint_every", "distance_bias", "delay_per_voxel")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -54,6 +54,8 @@ def run(args: argparse.Namespace) -> int:
         donors_origin = shared_origin(args.donors)
         terrain, terrain_from = donors_origin.terrain, donors_origin.source
     inherited = {**origin.options(), **({"terrain": terrain} if terrain else {})}
+    if genome.delay_per_voxel:  # its offspring keep the delays it was evolved with
+        inherited["delay_per_voxel"] = genome.delay_per_voxel
     config = configuration(args, defaults=inherited, shape=shape, start=str(args.genome))
     check_run_work(config, genome.body.shape.n_voxels, args.yes, "this re-optimisation")
     backend = check_backend(args.backend)

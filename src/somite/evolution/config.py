@@ -9,6 +9,7 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass, field, fields
 
+from ..brain.delays import check_delay_per_voxel
 from ..errors import bad
 from ..limits import MAX_POPULATION, at_most
 from ..sim.body import Shape
@@ -73,6 +74,10 @@ class GAConfig:
         probabilities in ``operators`` are ignored).
     operators : OperatorConfig
         Operator probabilities, sigma, omega and node placement.
+    delay_per_voxel : float
+        Beyond the paper (issue 72): the genomes' length-dependent delays, control steps per
+        voxel of an edge's length (:mod:`somite.brain.delays`); 0 (default): one step per edge.
+        The first population's genomes carry it, and with them every offspring.
     """
 
     population: int = 96
@@ -82,9 +87,12 @@ class GAConfig:
     partition_spec: str = "paper"
     weights_only: bool = False
     operators: OperatorConfig = field(default_factory=OperatorConfig)
+    delay_per_voxel: float = 0.0
 
     def __post_init__(self) -> None:
         check_types(GAConfig, {f.name: getattr(self, f.name) for f in fields(self)})
+        object.__setattr__(self, "delay_per_voxel",
+                           check_delay_per_voxel("delay_per_voxel", self.delay_per_voxel))
         if not isinstance(self.operators, OperatorConfig):
             raise bad("operators", self.operators, "expected an OperatorConfig")
         at_most("population", self.population, MAX_POPULATION)
@@ -123,6 +131,9 @@ class GAConfig:
         config.json)."""
         data = {OPTION_NAMES.get(f.name, f.name): getattr(self, f.name)
                 for f in fields(self) if f.name != "operators"}
+        if not self.delay_per_voxel:
+            # Only when set: every other run keeps the config.json and fingerprint it had.
+            del data["delay_per_voxel"]
         return {**data, **self.operators.to_dict()}
 
     def variation(self) -> OperatorConfig:

@@ -170,6 +170,10 @@ class GraphEA:
                                                  "a somite Genome").body != body:
             raise bad("shape", start.body.shape.grid_string(),
                       f"the start genome's body differs from the EA's {body.shape.grid_string()}")
+        if start is not None and start.delay_per_voxel != self.config.delay_per_voxel:
+            raise bad("delay_per_voxel", self.config.delay_per_voxel,
+                      f"the start genome's edges are delayed by {start.delay_per_voxel:g} steps "
+                      "per voxel: re-optimise it with its own")
         seed = checks.integer("seed", seed, 0, checks.SEED_END - 1)
         self.body = body
         self.start = start
@@ -266,7 +270,8 @@ class GraphEA:
     def _offspring(self) -> tuple[list[Genome], list[str]]:
         rng, config = self.rng_variation, self.config
         if self.population is None and self.start is None:
-            genomes = [initial_genome(self.body, rng) for _ in range(config.population)]
+            genomes = [initial_genome(self.body, rng, config.delay_per_voxel)
+                       for _ in range(config.population)]
             return genomes, ["init"] * config.population
         genomes, origins = ([self.start], ["seed"]) if self.population is None else ([], [])
         count = config.n_seeded_mutants() if self.population is None else config.population

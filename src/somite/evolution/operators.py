@@ -9,7 +9,8 @@ authors' operators always return a copy.
 
 - ``mutate_edge``: one uniformly chosen edge gets N(0, sigma^2) added to its weight and its bias.
 - ``add_edge``: one ordered pair u -> v with u not an actuator, v not a sensor, u != v and no
-  edge u -> v yet, chosen with probability proportional to its modularity weight; w, b ~ U(-1, 1).
+  edge u -> v yet, chosen with probability proportional to its modularity weight (times
+  exp(-distance_bias * d(u, v)) with the distance bias of issue 72); w, b ~ U(-1, 1).
 - ``remove_edge``: one uniformly chosen edge goes, then isolated hidden nodes are pruned.
 - ``add_node``: one ordered pair (u, v), u not an actuator, v not a sensor, u = v and already
   connected pairs allowed, chosen like ``add_edge``; a new hidden node w gets edges u -> w and
@@ -30,6 +31,7 @@ from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
+from ..brain.delays import node_distances
 from ..brain.genome import Edge, Genome, Node, body_table, next_id
 from ..brain.kinds import ACTUATOR, HIDDEN, SENSOR
 from ..errors import bad
@@ -49,7 +51,8 @@ class Operator:
 
 OPERATORS: dict[str, Operator] = {
     "mutate_edge": Operator(0.5, lambda g, rng, c, p: mutate_edge(g, rng, c.sigma)),
-    "add_edge": Operator(0.1, lambda g, rng, c, p: add_edge(g, rng, p, c.omega)),
+    "add_edge": Operator(0.1, lambda g, rng, c, p: add_edge(g, rng, p, c.omega,
+                                                            c.distance_bias)),
     "remove_edge": Operator(0.1, lambda g, rng, c, p: remove_edge(g, rng)),
     "add_node": Operator(0.15, lambda g, rng, c, p: add_node(g, rng, p, c.omega,
                                                              c.node_placement)),
@@ -62,6 +65,11 @@ OPERATOR_NAMES = tuple(OPERATORS)
 WEIGHT_MUTATION = "mutate_edge"
 """The one operator the weights-only ablation keeps (:meth:`OperatorConfig.weights_only`)."""
 NODE_PLACEMENTS = ("module", "uniform")
+BEYOND_PAPER = ("distance_bias",)
+"""Options the paper does not have, left out of :meth:`OperatorConfig.to_dict` at 0 (off)."""
+MAX_DISTANCE_BIAS = 10.0
+"""The largest ``distance_bias`` [1/voxel]: a pair 10 voxels apart then still weighs
+exp(-100), far above the smallest float, so the weights never all vanish."""
 
 
 def _with_operator_weights(cls):
@@ -95,11 +103,16 @@ class OperatorConfig:
         ``module`` (paper): with omega != 1, a node added between two nodes of one module goes
         to a random voxel of that module; ``uniform`` (authors' code), or omega = 1: to a random
         voxel of the body.
+    distance_bias : float
+        Beyond the paper (issue 72): ``add_edge`` weighs a pair u -> v by
+        exp(-distance_bias * d), d the distance between their voxels in voxels (0 inside one
+        voxel), on top of omega; 0 (default): no bias. ``add_node`` is unchanged.
     """
 
     sigma: float = 0.7
     omega: float = 1.0
     node_placement: str = "module"
+    distance_bias: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -125,6 +138,9 @@ class OperatorConfig:
             raise bad("omega", self.omega, "must be > 0")
         # Beyond it the operators' weight sums overflow to inf and the draws go wrong.
         at_most("omega", self.omega, MAX_OMEGA)
+        if not 0 <= self.distance_bias <= MAX_DISTANCE_BIAS:
+            raise bad("distance_bias", self.distance_bias,
+                      f"must be in [0, {MAX_DISTANCE_BIAS:g}] (per voxel; 0: no bias)")
 
     @property
     def probabilities(self) -> tuple[float, ...]:
@@ -138,8 +154,10 @@ class OperatorConfig:
                                 for name in OPERATORS})
 
     def to_dict(self) -> dict:
-        """The options as a JSON-ready dict."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
+        """The options as a JSON-ready dict; ``distance_bias`` only when set, so that every
+        other run keeps the ``config.json`` and fingerprint it always had."""
+        return {f.name: getattr(self, f.name) for f in fields(self)
+                if f.name not in BEYOND_PAPER or getattr(self, f.name) != 0.0}
 
     @classmethod
     def from_dict(cls, data: dict) -> OperatorConfig:
@@ -157,8 +175,9 @@ DEFAULT_CONFIG = OperatorConfig()
 # -- initialisation -----------------------------------------------------------------------------
 
 
-def initial_genome(body: Body, rng: np.random.Generator) -> Genome:
-    """The minimal controller of ``body`` (section 4.3).
+def initial_genome(body: Body, rng: np.random.Generator, delay_per_voxel: float = 0.0) -> Genome:
+    """The minimal controller of ``body`` (section 4.3), with edges delayed by
+    ``delay_per_voxel`` (:mod:`somite.brain.delays`; 0: the paper's one step).
 
     Every sensor and actuator node, no hidden node, and an edge from each sensor to the actuator
     of its own voxel with w, b ~ U(-1, 1). Ids follow the authors' order: voxel by voxel (bottom
@@ -177,7 +196,7 @@ def initial_genome(body: Body, rng: np.random.Generator) -> Genome:
         for s in range(n_slots):
             w, b = params[len(edges)]
             edges.append(Edge(first + s, actuator, float(w), float(b)))
-    return Genome(body, tuple(nodes), tuple(edges))
+    return Genome(body, tuple(nodes), tuple(edges), delay_per_voxel)
 
 
 # -- operators ----------------------------------------------------------------------------------
@@ -193,7 +212,7 @@ def mutate_edge(genome: Genome, rng: np.random.Generator, sigma: float = 0.7) ->
     dw, db = rng.normal(0.0, sigma, size=2)
     old = genome.edges[k]
     new = Edge(old.src, old.dst, float(old.weight + dw), float(old.bias + db))
-    return Genome(genome.body, genome.nodes, genome.edges[:k] + (new,) + genome.edges[k + 1 :])
+    return replace(genome, edges=genome.edges[:k] + (new,) + genome.edges[k + 1 :])
 
 
 def add_edge(
@@ -201,19 +220,22 @@ def add_edge(
     rng: np.random.Generator,
     partition: Partition | None = None,
     omega: float = 1.0,
+    distance_bias: float = 0.0,
 ) -> Genome:
-    """Add an edge u -> v with w, b ~ U(-1, 1) between a new valid pair, modularity-weighted."""
+    """Add an edge u -> v with w, b ~ U(-1, 1) between a new valid pair, modularity-weighted
+    and, with ``distance_bias`` > 0, weighted by exp(-distance_bias * d(u, v)) too."""
     index = genome.index
     mask = _pair_mask(index.kind)
     mask[index.src, index.dst] = False
     np.fill_diagonal(mask, False)
-    pick = _pick_pair(mask, _node_modules(genome, partition, omega), omega, rng)
+    pick = _pick_pair(mask, _node_modules(genome, partition, omega), omega, rng,
+                      _distance_weights(genome, distance_bias))
     if pick is None:
         return copy.copy(genome)
     u, v = pick
     w, b = rng.uniform(-1.0, 1.0, size=2)
     edge = Edge(int(index.ids[u]), int(index.ids[v]), float(w), float(b))
-    return Genome(genome.body, genome.nodes, genome.edges + (edge,))
+    return replace(genome, edges=genome.edges + (edge,))
 
 
 def remove_edge(genome: Genome, rng: np.random.Generator) -> Genome:
@@ -258,7 +280,7 @@ def add_node(
         Edge(hidden, int(index.ids[v]), float(w2), float(b2)),
     )
     node = Node(hidden, x, y, "hidden")
-    return Genome(genome.body, genome.nodes + (node,), genome.edges + new_edges)
+    return replace(genome, nodes=genome.nodes + (node,), edges=genome.edges + new_edges)
 
 
 def remove_node(genome: Genome, rng: np.random.Generator) -> Genome:
@@ -335,21 +357,41 @@ def _node_modules(
     return None if omega == 1.0 else partition.module_index[genome.index.voxel]
 
 
-def _pick_pair(mask, modules, omega: float, rng: np.random.Generator) -> tuple[int, int] | None:
-    """Draw one True cell (u, v) of ``mask``; same-module cells weigh ``omega``, others 1."""
+def _pick_pair(mask, modules, omega: float, rng: np.random.Generator,
+               distance=None) -> tuple[int, int] | None:
+    """Draw one True cell (u, v) of ``mask``; same-module cells weigh ``omega``, others 1,
+    times ``distance[u, v]`` when given (:func:`_distance_weights`)."""
     if not (omega > 0 and math.isfinite(omega)):
         raise bad("omega", omega, "must be a finite number > 0")
     flat = np.flatnonzero(mask)
     if flat.size == 0:
         return None
-    if modules is None:
+    if modules is None and distance is None:
+        # The paper's uniform draw, one integer: kept as it was, so unbiased runs draw the
+        # same numbers as before the distance bias existed.
         k = flat[rng.integers(flat.size)]
     else:
-        same = (modules[:, None] == modules[None, :]).ravel()[flat]
-        cumulative = np.cumsum(np.where(same, omega, 1.0))
+        weight = np.ones(flat.size)
+        if modules is not None:
+            same = (modules[:, None] == modules[None, :]).ravel()[flat]
+            weight = np.where(same, omega, 1.0)
+        if distance is not None:
+            weight = weight * distance.ravel()[flat]
+        cumulative = np.cumsum(weight)
         at = np.searchsorted(cumulative, rng.random() * cumulative[-1], side="right")
         k = flat[min(int(at), flat.size - 1)]
     return divmod(int(k), mask.shape[1])
+
+
+def _distance_weights(genome: Genome, distance_bias: float) -> np.ndarray | None:
+    """(N, N) exp(-distance_bias * d(u, v)), d the distance between the voxels of nodes u and v
+    in voxels (:func:`~somite.brain.delays.node_distances`); None for 0, no bias."""
+    if distance_bias == 0.0:
+        return None
+    if not (0.0 < distance_bias <= MAX_DISTANCE_BIAS):
+        raise bad("distance_bias", distance_bias, f"must be in [0, {MAX_DISTANCE_BIAS:g}]")
+    xy = body_table(genome.body).voxel_xy[genome.index.voxel]
+    return np.exp(-distance_bias * node_distances(xy))
 
 
 def _rebuild(genome: Genome, keep_nodes: np.ndarray, keep_edges: np.ndarray) -> Genome:
@@ -361,4 +403,4 @@ def _rebuild(genome: Genome, keep_nodes: np.ndarray, keep_edges: np.ndarray) -> 
     keep_nodes = keep_nodes & ((index.kind != HIDDEN) | touched)
     nodes = tuple(n for n, k in zip(genome.nodes, keep_nodes.tolist()) if k)
     edges = tuple(e for e, k in zip(genome.edges, keep_edges.tolist()) if k)
-    return Genome(genome.body, nodes, edges)
+    return replace(genome, nodes=nodes, edges=edges)

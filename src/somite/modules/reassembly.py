@@ -16,7 +16,7 @@ half from donor 1 and front half from donor 2; the biped's legs from donor 1, to
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import NamedTuple
 
 from ..brain.genome import Genome
@@ -189,6 +189,13 @@ def reassemble(
         target = receiver_partition.voxels_of(label)
         steps.append(Graft(label, module, _corner_offset(module.voxels, target), target))
     genome, reports = graft(receiver_body, steps)
+    delays = {g.delay_per_voxel for g in [*(d for d, _ in donors), *(t.donor for t in takes)]}
+    if len(delays) > 1:
+        raise bad("donors", sorted(delays), "the donors' edges are delayed differently "
+                  "(delay_per_voxel): their modules would not run as they did in them")
+    if delays and (delay := delays.pop()):
+        # The donors' delays go with their modules (issue 72): every edge keeps its law.
+        genome = replace(genome, delay_per_voxel=delay)
     return Reassembly(
         genome, receiver_partition, takes, reports, tuple(cuts.values()), sources
     )

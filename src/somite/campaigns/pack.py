@@ -20,22 +20,22 @@ byte as it was, but one kind of line. What it is made of:
   checkpoints go on exactly as before. The report reads ``log.csv`` and ``best.json``, not
   those genomes. A re-optimisation's bests are kept whole (its transfer curve reads them all).
 
-Packing holds the campaign's lock and refuses a campaign with a task running; unpacking
-writes into a hidden folder beside ``--out`` and renames it into place once every file is
-written and checked, so a failure leaves no half campaign.
+Packing holds the campaign's lock and refuses a campaign with a task running (a campaign
+folder it cannot write, read-only, is packed without the lock: nothing of it can run there);
+unpacking (:mod:`.unpack`) writes into a hidden folder beside ``--out`` and renames it into
+place once every file is written and checked, so a failure leaves no half campaign.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import json
 import lzma
 import math
 import os
-import shutil
 import struct
-import uuid
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,8 +47,6 @@ from .._io import (
     CHECK_PREFIX,
     TEMPORARY,
     check_output_file,
-    check_output_folder,
-    reason,
     write_atomic,
 )
 from ..errors import bad
@@ -56,7 +54,6 @@ from ..experiments.history import THINNED, line_digest, thinned_line
 from ..experiments.lock import LOCK_NAME, RunLock
 from ..experiments.logfile import LOG_COLUMNS
 from . import directory as campaign_dir
-from .layout import CAMPAIGN
 
 MAGIC = b"somite campaign pack\n"
 """The first bytes of a pack (then the xz stream)."""
@@ -66,6 +63,9 @@ LAST = 10
 """...and for its LAST generations."""
 THINNED_KINDS = ("evolve",)
 """The task kinds whose bests are thinned."""
+MAX_ENCODED = 64 * 2**20
+"""The largest file whose genomes or log a pack encodes (a larger one goes as it is):
+unpacking decodes such a file in memory. The paper's largest (a bests.jsonl) is 2.4 MB."""
 
 Say = Callable[[str], None]
 
@@ -118,6 +118,9 @@ class _Tables:
 
     bodies: list[str] = field(default_factory=list)
     kinds: list[str] = field(default_factory=list)
+    charge: Callable[[int], None] | None = None
+    """Told the bytes of each genome's body and node kinds before it is built (unpacking: a
+    genome of a few bytes may name a long body, so decoding is bounded as it goes)."""
 
     def code(self, table: list[str], value: str) -> int:
         if value not in table:
@@ -171,6 +174,8 @@ def _get_genome(r: _Reader, tables: _Tables) -> dict:
     head, body = tables.bodies[body_code].split("\n", 1)
     ids, xs, ys = (r.array(n, "<i8").tolist() for _ in range(3))
     kinds = [tables.kinds[k] for k in r.array(n, "<u2").tolist()]
+    if tables.charge is not None:
+        tables.charge(len(head) + len(body) + sum(map(len, kinds)))
     slots = [None if s < 0 else s for s in r.array(n, "<i8").tolist()]
     src, dst = r.array(m, "<i8").tolist(), r.array(m, "<i8").tolist()
     weight, bias = r.array(m, "<f8").tolist(), r.array(m, "<f8").tolist()
@@ -437,6 +442,8 @@ def _encode(path: Path, data: bytes, tables: _Tables, thin: bool) -> tuple[str, 
         text = data.decode("utf-8")
     except UnicodeDecodeError:
         return "raw", data, data
+    if len(data) > MAX_ENCODED:
+        return "raw", data, data
     name = path.name
     attempt = None
     if name == "bests.jsonl":
@@ -454,7 +461,8 @@ def _encode(path: Path, data: bytes, tables: _Tables, thin: bool) -> tuple[str, 
         back = None
     # Only thinning changes a file (its thinned lines); every line kept was checked to come
     # back as written.
-    if back is None or (back != data and not (encoding == "bests" and thin)):
+    if back is None or len(stored) > MAX_ENCODED or (
+            back != data and not (encoding == "bests" and thin)):
         return "raw", data, data
     return encoding, stored, back
 
@@ -477,7 +485,10 @@ def pack(directory: str | Path, out: str | Path, say: Say | None = None) -> Pack
         raise bad("out", str(out), f"is inside the campaign folder {directory}; write the pack "
                   "outside it")
     thinned_tasks = {t["path"] for t in doc["tasks"] if t["kind"] in THINNED_KINDS}
-    with RunLock(root):
+    # A folder this process cannot write (read-only) cannot take the lock, and no task of it
+    # can be run from here: it is packed as it is.
+    writable = os.access(root, os.W_OK)
+    with RunLock(root, field="campaign") if writable else contextlib.nullcontext():
         task = _busy(root, doc)
         if task is not None:
             raise bad("campaign", str(directory), f"its task {task} is running; pack it when "
@@ -522,95 +533,4 @@ def pack(directory: str | Path, out: str | Path, say: Say | None = None) -> Pack
     return result
 
 
-# -- unpack -------------------------------------------------------------------------------------
-
-def read_pack(path: str | Path) -> tuple[dict, bytes]:
-    """The index and the data of the pack at ``path``, or a one-line error."""
-    where = str(path)
-    try:
-        with open(path, "rb") as handle:
-            raw = handle.read()
-    except OSError as error:
-        raise bad("pack", where, f"cannot read it ({reason(error)})") from None
-    if not raw.startswith(MAGIC):
-        raise bad("pack", where, "not a somite campaign pack (`somite campaign pack` writes "
-                  "them)")
-    try:
-        payload = lzma.decompress(raw[len(MAGIC):], format=lzma.FORMAT_XZ)
-        (length,) = struct.unpack("<q", payload[:8])
-        index = json.loads(payload[8:8 + length].decode("utf-8"))
-    except (lzma.LZMAError, struct.error, ValueError, EOFError) as error:
-        raise bad("pack", where, f"damaged pack ({error})") from None
-    formats.CAMPAIGN_PACK.check(index, "pack", where)
-    return index, payload[8 + length:]
-
-
-def _check_entry(entry, where: str) -> None:
-    if not (isinstance(entry, dict) and isinstance(entry.get("path"), str)
-            and entry.get("encoding") in ("raw", "bests", "log", "checkpoint")
-            and all(_is_int(entry.get(k)) and entry[k] >= 0 for k in ("length", "size"))
-            and isinstance(entry.get("sha256"), str)):
-        raise bad("pack", where, f"damaged pack (file entry {str(entry)[:60]})")
-    path = entry["path"]
-    parts = path.split("/")
-    if path.startswith("/") or any(p in ("", ".", "..") for p in parts) or "\\" in path:
-        raise bad("pack", where, f"damaged pack (a file outside the campaign: {path!r})")
-
-
-def unpack(pack_path: str | Path, out: str | Path, say: Say | None = None) -> dict:
-    """Restore the pack ``pack_path`` into the new (or empty) folder ``out``; returns its
-    index."""
-    say = say or (lambda text: None)
-    where = str(pack_path)
-    index, data = read_pack(pack_path)
-    target = check_output_folder(out)
-    if target.exists() and any(target.iterdir()):
-        raise bad("out", str(out), "is not empty; unpack into a new or empty folder")
-    tables = _Tables(list(index.get("bodies", [])), list(index.get("kinds", [])))
-    entries = index.get("files")
-    if not isinstance(entries, list) or not any(
-        isinstance(e, dict) and e.get("path") == CAMPAIGN for e in entries
-    ):
-        raise bad("pack", where, "damaged pack (no campaign.json)")
-    staging = target.parent / f".{target.name}.unpack.{os.getpid()}.{uuid.uuid4().hex[:8]}"
-    decoders = {"raw": lambda d: d, "log": lambda d: _decode_log(d).encode("utf-8"),
-                "bests": lambda d: _decode_bests(d, tables).encode("utf-8"),
-                "checkpoint": lambda d: _decode_checkpoint(d, tables).encode("utf-8")}
-    try:
-        staging.mkdir(parents=True)
-        at, shown = 0, ""
-        for number, entry in enumerate(entries, 1):
-            _check_entry(entry, where)
-            stored = data[at:at + entry["length"]]
-            at += entry["length"]
-            try:
-                content = decoders[entry["encoding"]](stored)
-            except (ValueError, KeyError, IndexError, struct.error, UnicodeDecodeError):
-                content = None
-            if content is None or len(stored) != entry["length"] or len(content) != entry[
-                "size"
-            ] or hashlib.sha256(content).hexdigest() != entry["sha256"]:
-                raise bad("pack", where, f"damaged pack ({entry['path']} does not come back "
-                          "as packed)")
-            file = staging / entry["path"]
-            file.parent.mkdir(parents=True, exist_ok=True)
-            file.write_bytes(content)
-            folder = entry["path"].rpartition("/")[0]
-            if folder and folder != shown:
-                shown = folder
-                say(f"unpacking {folder} (file {number} of {len(entries)})")
-        if at != len(data):
-            raise bad("pack", where, "damaged pack (data after the last file)")
-        campaign_dir.read(staging)  # the campaign.json is a campaign's, checked as a whole
-        if target.exists():
-            target.rmdir()
-        os.rename(staging, target)
-    except OSError as error:
-        raise bad("out", str(out), f"cannot write it ({reason(error)})") from None
-    finally:
-        if staging.exists():
-            shutil.rmtree(staging, ignore_errors=True)
-    return index
-
-
-__all__ = ["EVERY", "LAST", "MAGIC", "Packed", "pack", "read_pack", "unpack"]
+__all__ = ["EVERY", "LAST", "MAGIC", "MAX_ENCODED", "Packed", "pack"]

@@ -45,7 +45,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                      help="with --resume: resume runs that started under another physics "
                      "version than this somite's (refused without it); each such run's "
                      "physics.json records it")
-    sub.add_parser("list", help="the built-in campaigns, their tasks and robot-control-steps")
+    listing = sub.add_parser("list", help="the built-in campaigns (or the campaigns named), "
+                             "their tasks, robot-control-steps and time, before running any")
+    listing.add_argument("campaigns", nargs="*", metavar="CAMPAIGN",
+                         help="built-in names or campaign TOML files (default: every built-in)")
     status = sub.add_parser("status", help="the table of a campaign directory's tasks")
     status.add_argument("directory", help="campaign directory")
     pack = sub.add_parser(
@@ -199,21 +202,25 @@ def _list(args: argparse.Namespace) -> int:
     from rich.console import Console
 
     from ..budget import STEPS_PER_CORE_SECOND, about, hours
-    from ..campaigns.builtin import BUILTINS, builtin
+    from ..campaigns.builtin import BUILTINS
     from ..campaigns.executor import cores
     from ..campaigns.expansion import expand
     from ..campaigns.kinds import TASK_KINDS, estimate
 
     n = cores()
     rows = []
-    for name in BUILTINS:
-        tasks = expand(builtin(name))
+    names = args.campaigns or list(BUILTINS)
+    # Every file read and checked before a line is printed: a bad one is one line, no table.
+    expanded = [expand(load_campaign(name)) for name in names]
+    for name, tasks in zip(names, expanded):
         kinds = [sum(t["kind"] == k for t in tasks) for k in TASK_KINDS]
         steps = sum(estimate(t) for t in tasks)
         rows.append([name, str(len(tasks)), *map(str, kinds), f"{steps:.2e}",
                      about(hours(steps, cores=n) * 3600)])
     console = Console()
-    console.print(_fit(console, lambda compact: _list_table(rows, list(TASK_KINDS), n, compact)))
+    title = "built-in campaigns" if not args.campaigns else "campaigns"
+    console.print(_fit(console, lambda compact: _list_table(rows, list(TASK_KINDS), n, compact,
+                                                            title)))
     # Through rich, so that the note wraps at the terminal's width too.
     console.print(f"time: the simulation alone (not Dask's start or Numba's first compilation) "
                   f"at {STEPS_PER_CORE_SECOND:,} robot-control-steps/s a core (BENCHMARKS.md, "
@@ -222,18 +229,22 @@ def _list(args: argparse.Namespace) -> int:
     return 0
 
 
-def _list_table(rows: list[list[str]], kinds: list[str], n: int, compact: bool):
-    """The built-ins' table; ``compact``: the long headers on several lines, 80 columns hold
+def _list_table(rows: list[list[str]], kinds: list[str], n: int, compact: bool,
+                title: str = "built-in campaigns"):
+    """The campaigns' table; ``compact``: the long headers on several lines, 80 columns hold
     it then."""
     from rich.table import Table
+    from rich.text import Text
 
     steps = "robot-\ncontrol-\nsteps" if compact else "robot-control-steps"
     time = f"time on\n{n} cores" if compact else f"time on {n} cores"
-    grid = Table(title="built-in campaigns", **_style(compact))
-    for name in ("campaign", "tasks", *kinds, steps, time):
-        grid.add_column(name, justify="left" if name == "campaign" else "right", no_wrap=True)
+    # A file's name is the user's text: shown as it is, never read as rich markup.
+    grid = Table(title=title, **_style(compact))
+    grid.add_column("campaign", overflow="fold")  # a file's path may be long: folded, not cut
+    for name in ("tasks", *kinds, steps, time):
+        grid.add_column(name, justify="right", no_wrap=True)
     for row in rows:
-        grid.add_row(*row)
+        grid.add_row(Text(row[0]), *row[1:])
     return grid
 
 

@@ -106,8 +106,9 @@ class RunLock:
     one-line :class:`~somite.errors.SomiteError` naming the holder.
     """
 
-    def __init__(self, folder: str | os.PathLike) -> None:
+    def __init__(self, folder: str | os.PathLike, field: str = "out") -> None:
         self.folder = Path(folder)
+        self.field = field  # what a refusal names: a run's --out, a packed campaign
         self.path = self.folder / LOCK_NAME
         self._fd: int | None = None
         self._folder_fd: int | None = None
@@ -117,7 +118,7 @@ class RunLock:
         return self._fd is not None
 
     def _error(self, why: str) -> SomiteError:
-        return bad("out", str(self.folder), why)
+        return bad(self.field, str(self.folder), why)
 
     def _in_use(self) -> SomiteError:
         return self._error(f"in use by {_holder(self.path)}; wait for it to finish or stop it")

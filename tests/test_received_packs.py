@@ -213,3 +213,8 @@ def test_a_campaign_lock_refusal_names_the_campaign(packed, tmp_path):
     unpack(packed, root)
     with RunLock(root), pytest.raises(SomiteError, match=r"^campaign="):
         pack(root, tmp_path / "again.pack")
+
+
+def test_an_unpack_creates_the_folders_above_out(packed, tmp_path):
+    unpack(packed, tmp_path / "a" / "b" / "u")
+    assert (tmp_path / "a" / "b" / "u" / "campaign.json").is_file()

@@ -287,7 +287,8 @@ def _check_campaign(staging: Path, target: Path) -> None:
 
 
 def _check_room(target: Path, total: int) -> None:
-    free = shutil.disk_usage(target if target.exists() else target.parent).free
+    existing = next(p for p in (target, *target.parents) if p.exists())
+    free = shutil.disk_usage(existing).free
     if total > free:
         raise bad("out", str(target), f"the pack unpacks to {total / 1e6:.1f} MB and its disk "
                   f"has {free / 1e6:.1f} MB free")

@@ -24,9 +24,19 @@ from .physics import (
     R_MASS,
     R_NX,
     R_NY,
+    W_C00,
+    W_C01,
+    W_C02,
+    W_DET,
     W_JX,
     W_JY,
     W_JZ,
+    W_K00,
+    W_K01,
+    W_K02,
+    W_K11,
+    W_K12,
+    W_K22,
     W_RBX,
     W_RBY,
     moved,
@@ -40,6 +50,7 @@ from .physics import (
     weld_fixed,
     weld_impulse,
     weld_pushed,
+    weld_terms,
 )
 from .trig import sincos
 
@@ -1197,6 +1208,14 @@ def start_welds(ends, anchor, work, vel, cos, sin, inv_mass, inv_inertia):
         rbx_5, rby_5 = rotated(obx, oby, cb_5, sb_5)
         rbx_6, rby_6 = rotated(obx, oby, cb_6, sb_6)
         rbx_7, rby_7 = rotated(obx, oby, cb_7, sb_7)
+        k00_0, k01_0, k02_0, k11_0, k12_0, k22_0, c00_0, c01_0, c02_0, det_0 = weld_terms(ima, iia, imb, iib, rbx_0, rby_0)
+        k00_1, k01_1, k02_1, k11_1, k12_1, k22_1, c00_1, c01_1, c02_1, det_1 = weld_terms(ima, iia, imb, iib, rbx_1, rby_1)
+        k00_2, k01_2, k02_2, k11_2, k12_2, k22_2, c00_2, c01_2, c02_2, det_2 = weld_terms(ima, iia, imb, iib, rbx_2, rby_2)
+        k00_3, k01_3, k02_3, k11_3, k12_3, k22_3, c00_3, c01_3, c02_3, det_3 = weld_terms(ima, iia, imb, iib, rbx_3, rby_3)
+        k00_4, k01_4, k02_4, k11_4, k12_4, k22_4, c00_4, c01_4, c02_4, det_4 = weld_terms(ima, iia, imb, iib, rbx_4, rby_4)
+        k00_5, k01_5, k02_5, k11_5, k12_5, k22_5, c00_5, c01_5, c02_5, det_5 = weld_terms(ima, iia, imb, iib, rbx_5, rby_5)
+        k00_6, k01_6, k02_6, k11_6, k12_6, k22_6, c00_6, c01_6, c02_6, det_6 = weld_terms(ima, iia, imb, iib, rbx_6, rby_6)
+        k00_7, k01_7, k02_7, k11_7, k12_7, k22_7, c00_7, c01_7, c02_7, det_7 = weld_terms(ima, iia, imb, iib, rbx_7, rby_7)
         a0_0, a1_0, a2_0, b0_0, b1_0, b2_0 = weld_pushed(a0_0, a1_0, a2_0, b0_0, b1_0, b2_0, rbx_0, rby_0, jx_0, jy_0, jz_0, ima, iia, imb, iib)
         a0_1, a1_1, a2_1, b0_1, b1_1, b2_1 = weld_pushed(a0_1, a1_1, a2_1, b0_1, b1_1, b2_1, rbx_1, rby_1, jx_1, jy_1, jz_1, ima, iia, imb, iib)
         a0_2, a1_2, a2_2, b0_2, b1_2, b2_2 = weld_pushed(a0_2, a1_2, a2_2, b0_2, b1_2, b2_2, rbx_2, rby_2, jx_2, jy_2, jz_2, ima, iia, imb, iib)
@@ -1221,6 +1240,86 @@ def start_welds(ends, anchor, work, vel, cos, sin, inv_mass, inv_inertia):
         w[W_RBY, 5] = rby_5
         w[W_RBY, 6] = rby_6
         w[W_RBY, 7] = rby_7
+        w[W_K00, 0] = k00_0
+        w[W_K00, 1] = k00_1
+        w[W_K00, 2] = k00_2
+        w[W_K00, 3] = k00_3
+        w[W_K00, 4] = k00_4
+        w[W_K00, 5] = k00_5
+        w[W_K00, 6] = k00_6
+        w[W_K00, 7] = k00_7
+        w[W_K01, 0] = k01_0
+        w[W_K01, 1] = k01_1
+        w[W_K01, 2] = k01_2
+        w[W_K01, 3] = k01_3
+        w[W_K01, 4] = k01_4
+        w[W_K01, 5] = k01_5
+        w[W_K01, 6] = k01_6
+        w[W_K01, 7] = k01_7
+        w[W_K02, 0] = k02_0
+        w[W_K02, 1] = k02_1
+        w[W_K02, 2] = k02_2
+        w[W_K02, 3] = k02_3
+        w[W_K02, 4] = k02_4
+        w[W_K02, 5] = k02_5
+        w[W_K02, 6] = k02_6
+        w[W_K02, 7] = k02_7
+        w[W_K11, 0] = k11_0
+        w[W_K11, 1] = k11_1
+        w[W_K11, 2] = k11_2
+        w[W_K11, 3] = k11_3
+        w[W_K11, 4] = k11_4
+        w[W_K11, 5] = k11_5
+        w[W_K11, 6] = k11_6
+        w[W_K11, 7] = k11_7
+        w[W_K12, 0] = k12_0
+        w[W_K12, 1] = k12_1
+        w[W_K12, 2] = k12_2
+        w[W_K12, 3] = k12_3
+        w[W_K12, 4] = k12_4
+        w[W_K12, 5] = k12_5
+        w[W_K12, 6] = k12_6
+        w[W_K12, 7] = k12_7
+        w[W_K22, 0] = k22_0
+        w[W_K22, 1] = k22_1
+        w[W_K22, 2] = k22_2
+        w[W_K22, 3] = k22_3
+        w[W_K22, 4] = k22_4
+        w[W_K22, 5] = k22_5
+        w[W_K22, 6] = k22_6
+        w[W_K22, 7] = k22_7
+        w[W_C00, 0] = c00_0
+        w[W_C00, 1] = c00_1
+        w[W_C00, 2] = c00_2
+        w[W_C00, 3] = c00_3
+        w[W_C00, 4] = c00_4
+        w[W_C00, 5] = c00_5
+        w[W_C00, 6] = c00_6
+        w[W_C00, 7] = c00_7
+        w[W_C01, 0] = c01_0
+        w[W_C01, 1] = c01_1
+        w[W_C01, 2] = c01_2
+        w[W_C01, 3] = c01_3
+        w[W_C01, 4] = c01_4
+        w[W_C01, 5] = c01_5
+        w[W_C01, 6] = c01_6
+        w[W_C01, 7] = c01_7
+        w[W_C02, 0] = c02_0
+        w[W_C02, 1] = c02_1
+        w[W_C02, 2] = c02_2
+        w[W_C02, 3] = c02_3
+        w[W_C02, 4] = c02_4
+        w[W_C02, 5] = c02_5
+        w[W_C02, 6] = c02_6
+        w[W_C02, 7] = c02_7
+        w[W_DET, 0] = det_0
+        w[W_DET, 1] = det_1
+        w[W_DET, 2] = det_2
+        w[W_DET, 3] = det_3
+        w[W_DET, 4] = det_4
+        w[W_DET, 5] = det_5
+        w[W_DET, 6] = det_6
+        w[W_DET, 7] = det_7
         va[0, 0] = a0_0
         va[0, 1] = a0_1
         va[0, 2] = a0_2
@@ -1371,14 +1470,94 @@ def solve_welds(ends, work, vel, inv_mass, inv_inertia):
         sz_5 = w[W_JZ, 5]
         sz_6 = w[W_JZ, 6]
         sz_7 = w[W_JZ, 7]
-        jx_0, jy_0, jz_0 = weld_impulse(rbx_0, rby_0, ima, iia, imb, iib, a0_0, a1_0, a2_0, b0_0, b1_0, b2_0)
-        jx_1, jy_1, jz_1 = weld_impulse(rbx_1, rby_1, ima, iia, imb, iib, a0_1, a1_1, a2_1, b0_1, b1_1, b2_1)
-        jx_2, jy_2, jz_2 = weld_impulse(rbx_2, rby_2, ima, iia, imb, iib, a0_2, a1_2, a2_2, b0_2, b1_2, b2_2)
-        jx_3, jy_3, jz_3 = weld_impulse(rbx_3, rby_3, ima, iia, imb, iib, a0_3, a1_3, a2_3, b0_3, b1_3, b2_3)
-        jx_4, jy_4, jz_4 = weld_impulse(rbx_4, rby_4, ima, iia, imb, iib, a0_4, a1_4, a2_4, b0_4, b1_4, b2_4)
-        jx_5, jy_5, jz_5 = weld_impulse(rbx_5, rby_5, ima, iia, imb, iib, a0_5, a1_5, a2_5, b0_5, b1_5, b2_5)
-        jx_6, jy_6, jz_6 = weld_impulse(rbx_6, rby_6, ima, iia, imb, iib, a0_6, a1_6, a2_6, b0_6, b1_6, b2_6)
-        jx_7, jy_7, jz_7 = weld_impulse(rbx_7, rby_7, ima, iia, imb, iib, a0_7, a1_7, a2_7, b0_7, b1_7, b2_7)
+        k00_0 = w[W_K00, 0]
+        k00_1 = w[W_K00, 1]
+        k00_2 = w[W_K00, 2]
+        k00_3 = w[W_K00, 3]
+        k00_4 = w[W_K00, 4]
+        k00_5 = w[W_K00, 5]
+        k00_6 = w[W_K00, 6]
+        k00_7 = w[W_K00, 7]
+        k01_0 = w[W_K01, 0]
+        k01_1 = w[W_K01, 1]
+        k01_2 = w[W_K01, 2]
+        k01_3 = w[W_K01, 3]
+        k01_4 = w[W_K01, 4]
+        k01_5 = w[W_K01, 5]
+        k01_6 = w[W_K01, 6]
+        k01_7 = w[W_K01, 7]
+        k02_0 = w[W_K02, 0]
+        k02_1 = w[W_K02, 1]
+        k02_2 = w[W_K02, 2]
+        k02_3 = w[W_K02, 3]
+        k02_4 = w[W_K02, 4]
+        k02_5 = w[W_K02, 5]
+        k02_6 = w[W_K02, 6]
+        k02_7 = w[W_K02, 7]
+        k11_0 = w[W_K11, 0]
+        k11_1 = w[W_K11, 1]
+        k11_2 = w[W_K11, 2]
+        k11_3 = w[W_K11, 3]
+        k11_4 = w[W_K11, 4]
+        k11_5 = w[W_K11, 5]
+        k11_6 = w[W_K11, 6]
+        k11_7 = w[W_K11, 7]
+        k12_0 = w[W_K12, 0]
+        k12_1 = w[W_K12, 1]
+        k12_2 = w[W_K12, 2]
+        k12_3 = w[W_K12, 3]
+        k12_4 = w[W_K12, 4]
+        k12_5 = w[W_K12, 5]
+        k12_6 = w[W_K12, 6]
+        k12_7 = w[W_K12, 7]
+        k22_0 = w[W_K22, 0]
+        k22_1 = w[W_K22, 1]
+        k22_2 = w[W_K22, 2]
+        k22_3 = w[W_K22, 3]
+        k22_4 = w[W_K22, 4]
+        k22_5 = w[W_K22, 5]
+        k22_6 = w[W_K22, 6]
+        k22_7 = w[W_K22, 7]
+        c00_0 = w[W_C00, 0]
+        c00_1 = w[W_C00, 1]
+        c00_2 = w[W_C00, 2]
+        c00_3 = w[W_C00, 3]
+        c00_4 = w[W_C00, 4]
+        c00_5 = w[W_C00, 5]
+        c00_6 = w[W_C00, 6]
+        c00_7 = w[W_C00, 7]
+        c01_0 = w[W_C01, 0]
+        c01_1 = w[W_C01, 1]
+        c01_2 = w[W_C01, 2]
+        c01_3 = w[W_C01, 3]
+        c01_4 = w[W_C01, 4]
+        c01_5 = w[W_C01, 5]
+        c01_6 = w[W_C01, 6]
+        c01_7 = w[W_C01, 7]
+        c02_0 = w[W_C02, 0]
+        c02_1 = w[W_C02, 1]
+        c02_2 = w[W_C02, 2]
+        c02_3 = w[W_C02, 3]
+        c02_4 = w[W_C02, 4]
+        c02_5 = w[W_C02, 5]
+        c02_6 = w[W_C02, 6]
+        c02_7 = w[W_C02, 7]
+        det_0 = w[W_DET, 0]
+        det_1 = w[W_DET, 1]
+        det_2 = w[W_DET, 2]
+        det_3 = w[W_DET, 3]
+        det_4 = w[W_DET, 4]
+        det_5 = w[W_DET, 5]
+        det_6 = w[W_DET, 6]
+        det_7 = w[W_DET, 7]
+        jx_0, jy_0, jz_0 = weld_impulse(rbx_0, rby_0, (k00_0, k01_0, k02_0, k11_0, k12_0, k22_0, c00_0, c01_0, c02_0, det_0), a0_0, a1_0, a2_0, b0_0, b1_0, b2_0)
+        jx_1, jy_1, jz_1 = weld_impulse(rbx_1, rby_1, (k00_1, k01_1, k02_1, k11_1, k12_1, k22_1, c00_1, c01_1, c02_1, det_1), a0_1, a1_1, a2_1, b0_1, b1_1, b2_1)
+        jx_2, jy_2, jz_2 = weld_impulse(rbx_2, rby_2, (k00_2, k01_2, k02_2, k11_2, k12_2, k22_2, c00_2, c01_2, c02_2, det_2), a0_2, a1_2, a2_2, b0_2, b1_2, b2_2)
+        jx_3, jy_3, jz_3 = weld_impulse(rbx_3, rby_3, (k00_3, k01_3, k02_3, k11_3, k12_3, k22_3, c00_3, c01_3, c02_3, det_3), a0_3, a1_3, a2_3, b0_3, b1_3, b2_3)
+        jx_4, jy_4, jz_4 = weld_impulse(rbx_4, rby_4, (k00_4, k01_4, k02_4, k11_4, k12_4, k22_4, c00_4, c01_4, c02_4, det_4), a0_4, a1_4, a2_4, b0_4, b1_4, b2_4)
+        jx_5, jy_5, jz_5 = weld_impulse(rbx_5, rby_5, (k00_5, k01_5, k02_5, k11_5, k12_5, k22_5, c00_5, c01_5, c02_5, det_5), a0_5, a1_5, a2_5, b0_5, b1_5, b2_5)
+        jx_6, jy_6, jz_6 = weld_impulse(rbx_6, rby_6, (k00_6, k01_6, k02_6, k11_6, k12_6, k22_6, c00_6, c01_6, c02_6, det_6), a0_6, a1_6, a2_6, b0_6, b1_6, b2_6)
+        jx_7, jy_7, jz_7 = weld_impulse(rbx_7, rby_7, (k00_7, k01_7, k02_7, k11_7, k12_7, k22_7, c00_7, c01_7, c02_7, det_7), a0_7, a1_7, a2_7, b0_7, b1_7, b2_7)
         a0_0, a1_0, a2_0, b0_0, b1_0, b2_0 = weld_pushed(a0_0, a1_0, a2_0, b0_0, b1_0, b2_0, rbx_0, rby_0, jx_0, jy_0, jz_0, ima, iia, imb, iib)
         a0_1, a1_1, a2_1, b0_1, b1_1, b2_1 = weld_pushed(a0_1, a1_1, a2_1, b0_1, b1_1, b2_1, rbx_1, rby_1, jx_1, jy_1, jz_1, ima, iia, imb, iib)
         a0_2, a1_2, a2_2, b0_2, b1_2, b2_2 = weld_pushed(a0_2, a1_2, a2_2, b0_2, b1_2, b2_2, rbx_2, rby_2, jx_2, jy_2, jz_2, ima, iia, imb, iib)

@@ -24,10 +24,12 @@ AVX-512 Xeon, 2026-12-03: 4 lanes 114k-117k robot-control-steps a second, 8 lane
 lanes 122k-128k)."""
 
 PHYSICS = ("rotated", "spring_terms", "spring_impulse", "pushed", "unit", "rope_impulse",
-           "weld_pushed", "weld_impulse", "moved", "rope_fixed", "weld_fixed", "BLOCK_SIDE",
+           "weld_pushed", "weld_impulse", "weld_terms", "moved", "rope_fixed", "weld_fixed",
+           "BLOCK_SIDE",
            "J_RAX", "J_RAY", "J_RBX", "J_RBY", "J_NX", "J_NY", "J_MASS", "J_GAMMA", "J_BIAS",
            "J_IMPULSE", "R_NX", "R_NY", "R_MASS", "R_IMPULSE", "R_ACTIVE", "W_RBX", "W_RBY",
-           "W_JX", "W_JY", "W_JZ")
+           "W_JX", "W_JY", "W_JZ", "W_K00", "W_K01", "W_K02", "W_K11", "W_K12", "W_K22", "W_C00",
+           "W_C01", "W_C02", "W_DET")
 """What the generated passes take from :mod:`somite.sim.physics`."""
 
 _JOINTS = ("for m in range(ends.shape[0]):", "a = ends[m, 0]", "b = ends[m, 1]")
@@ -143,22 +145,29 @@ _pass(
     + _STORE_VELOCITIES,
     doc="""One velocity pass over the active rope limits (``physics.rope_solve``).""")
 
+# A weld's terms (physics.weld_terms): set up once a step, loaded by each velocity pass.
+_WELD_TERMS = ("k00", "k01", "k02", "k11", "k12", "k22", "c00", "c01", "c02", "det")
+_K = ", ".join(name + "_{l}" for name in _WELD_TERMS)
+
 _pass(
     "start_welds", "ends, anchor, work, vel, cos, sin, inv_mass, inv_inertia",
     _MASSES + ["cb = cos[b]", "sb = sin[b]", "obx = anchor[m, 0]", "oby = anchor[m, 1]"],
     _VELOCITIES + ["cb_{l} = cb[{l}]", "sb_{l} = sb[{l}]", "jx_{l} = w[W_JX, {l}]",
                    "jy_{l} = w[W_JY, {l}]", "jz_{l} = w[W_JZ, {l}]"],
     ["rbx_{l}, rby_{l} = rotated(obx, oby, cb_{l}, sb_{l})",
+     _K + " = weld_terms(ima, iia, imb, iib, rbx_{l}, rby_{l})",
      _NEW + "weld_pushed(" + _OLD + ", rbx_{l}, rby_{l}, jx_{l}, jy_{l}, jz_{l}, ima, iia, imb, "
      "iib)"],
-    ["w[W_RBX, {l}] = rbx_{l}", "w[W_RBY, {l}] = rby_{l}"] + _STORE_VELOCITIES,
+    ["w[W_RBX, {l}] = rbx_{l}", "w[W_RBY, {l}] = rby_{l}"]
+    + [f"w[W_{name.upper()}, {{l}}] = {name}_{{l}}" for name in _WELD_TERMS] + _STORE_VELOCITIES,
     doc="""Each weld set up for this step and warm-started (``physics.weld_setup``).""")
 
 _pass(
     "solve_welds", "ends, work, vel, inv_mass, inv_inertia", _MASSES,
     _VELOCITIES + ["rbx_{l} = w[W_RBX, {l}]", "rby_{l} = w[W_RBY, {l}]",
-                   "sx_{l} = w[W_JX, {l}]", "sy_{l} = w[W_JY, {l}]", "sz_{l} = w[W_JZ, {l}]"],
-    ["jx_{l}, jy_{l}, jz_{l} = weld_impulse(rbx_{l}, rby_{l}, ima, iia, imb, iib, " + _OLD + ")",
+                   "sx_{l} = w[W_JX, {l}]", "sy_{l} = w[W_JY, {l}]", "sz_{l} = w[W_JZ, {l}]"]
+    + [f"{name}_{{l}} = w[W_{name.upper()}, {{l}}]" for name in _WELD_TERMS],
+    ["jx_{l}, jy_{l}, jz_{l} = weld_impulse(rbx_{l}, rby_{l}, (" + _K + "), " + _OLD + ")",
      _NEW + "weld_pushed(" + _OLD + ", rbx_{l}, rby_{l}, jx_{l}, jy_{l}, jz_{l}, ima, iia, imb, "
      "iib)"],
     ["w[W_JX, {l}] = sx_{l} + jx_{l}", "w[W_JY, {l}] = sy_{l} + jy_{l}",

@@ -74,17 +74,23 @@ N_SPRING_COLUMNS = 10
 # Columns of a rope's work row: direction, effective mass, impulse, active (1) or not (0).
 R_NX, R_NY, R_MASS, R_IMPULSE, R_ACTIVE = range(5)
 N_ROPE_COLUMNS = 5
-# Columns of a weld's work row: the anchor's offset on the second body, the impulse (x, y, angle).
-W_RBX, W_RBY, W_JX, W_JY, W_JZ = range(5)
-N_WELD_COLUMNS = 5
+# Columns of a weld's work row: the anchor's offset on the second body, the impulse (x, y, angle),
+# then what its velocity passes solve with, set up once a step (:func:`weld_terms`): the 3x3
+# effective-mass matrix (K00 .. K22), the cofactors of its first row and the inverse of its
+# determinant.
+(W_RBX, W_RBY, W_JX, W_JY, W_JZ, W_K00, W_K01, W_K02, W_K11, W_K12, W_K22, W_C00, W_C01, W_C02,
+ W_DET) = range(15)
+N_WELD_COLUMNS = 15
 # Columns of a contact row. A contact pushes body A along the normal and body B (-1: the
 # ground) the other way; LAX.. are the point in A's frame, LBX.. in B's (the world's for the
 # ground). Rows of one contact pair (at most two points) are adjacent; COUNT is their number on
-# the pair's first row and 0 on its second; LIVE is 0 for a point the solver dropped.
+# the pair's first row and 0 on its second; LIVE is 0 for a point the solver dropped. On a
+# two-point pair's first row, K00 .. I11: its 2x2 normal-impulse matrix and that matrix's
+# inverse, set up once a step (:func:`start_contacts`).
 (C_A, C_B, C_FEATURE, C_PX, C_PY, C_DEPTH, C_NX, C_NY, C_LAX, C_LAY, C_LBX, C_LBY, C_RAX,
  C_RAY, C_RBX, C_RBY, C_MASS_N, C_MASS_T, C_BOUNCE, C_JN, C_JT, C_JP, C_COUNT, C_LIVE,
- C_MU) = range(25)
-N_CONTACT_COLUMNS = 25
+ C_MU, C_K00, C_K01, C_K11, C_I00, C_I01, C_I11) = range(31)
+N_CONTACT_COLUMNS = 31
 
 
 @njit(inline="always")
@@ -404,18 +410,31 @@ def fix_ropes(robot, pos) -> bool:
 
 
 @njit(inline="always")
-def solve33(a00, a01, a02, a11, a12, a22, bx, by, bz):
-    """x of the symmetric system A x = b (Cramer's rule; 0 if A is singular)."""
+def cofactors33(a00, a01, a02, a11, a12, a22):
+    """What :func:`solve33` needs of the symmetric matrix A alone: the cofactors of its first
+    row and the inverse of its determinant (0 if A is singular)."""
     c00 = a11 * a22 - a12 * a12
     c01 = a01 * a22 - a12 * a02
     c02 = a01 * a12 - a11 * a02
     det = a00 * c00 - a01 * c01 + a02 * c02
     inverse = 1.0 / det
-    det = inverse if det != 0.0 else det
+    return c00, c01, c02, inverse if det != 0.0 else det
+
+
+@njit
+def solved33(a00, a01, a02, a11, a12, a22, c00, c01, c02, det, bx, by, bz):
+    """x of the symmetric system A x = b, given A's :func:`cofactors33` (Cramer's rule)."""
     x = det * (bx * c00 - a01 * (by * a22 - a12 * bz) + a02 * (by * a12 - a11 * bz))
     y = det * (a00 * (by * a22 - bz * a12) - bx * c01 + a02 * (a01 * bz - by * a02))
     z = det * (a00 * (a11 * bz - a12 * by) - a01 * (a01 * bz - by * a02) + bx * c02)
     return x, y, z
+
+
+@njit(inline="always")
+def solve33(a00, a01, a02, a11, a12, a22, bx, by, bz):
+    """x of the symmetric system A x = b (Cramer's rule; 0 if A is singular)."""
+    c00, c01, c02, det = cofactors33(a00, a01, a02, a11, a12, a22)
+    return solved33(a00, a01, a02, a11, a12, a22, c00, c01, c02, det, bx, by, bz)
 
 
 @njit(inline="always")
@@ -434,11 +453,23 @@ def weld_pushed(a0, a1, a2, b0, b1, b2, rbx, rby, jx, jy, jz, ima, iia, imb, iib
 
 
 @njit
-def weld_impulse(rbx, rby, ima, iia, imb, iib, a0, a1, a2, b0, b1, b2):
-    """One velocity pass's impulse (x, y, angle) of a weld on its bodies' velocities."""
+def weld_terms(ima, iia, imb, iib, rbx, rby):
+    """What a weld's velocity passes solve with, from its set-up alone: its
+    :func:`weld_matrix` and that matrix's :func:`cofactors33` (K00 .. K22, C00, C01, C02,
+    DET). Set up once a step rather than in each pass: the same expressions, so the same bits,
+    without a division a pass."""
     k00, k01, k02, k11, k12, k22 = weld_matrix(ima, iia, imb, iib, rbx, rby)
+    c00, c01, c02, det = cofactors33(k00, k01, k02, k11, k12, k22)
+    return k00, k01, k02, k11, k12, k22, c00, c01, c02, det
+
+
+@njit
+def weld_impulse(rbx, rby, k, a0, a1, a2, b0, b1, b2):
+    """One velocity pass's impulse (x, y, angle) of a weld on its bodies' velocities; ``k``:
+    its :func:`weld_terms`."""
+    k00, k01, k02, k11, k12, k22, c00, c01, c02, det = k
     vx, vy = relative(a0, a1, a2, b0, b1, b2, 0.0, 0.0, rbx, rby)
-    return solve33(k00, k01, k02, k11, k12, k22, -vx, -vy, -(a2 - b2))
+    return solved33(k00, k01, k02, k11, k12, k22, c00, c01, c02, det, -vx, -vy, -(a2 - b2))
 
 
 @njit(inline="always")
@@ -460,17 +491,22 @@ def weld_setup(q, a, b, robot, scratch, vel):
     rbx, rby = turned(b, anchor[q, 0], anchor[q, 1], scratch.cos, scratch.sin)
     work[q, W_RBX] = rbx
     work[q, W_RBY] = rby
+    inv_mass, inv_inertia = robot.inv_mass, robot.inv_inertia
+    w = work[q]
+    (w[W_K00], w[W_K01], w[W_K02], w[W_K11], w[W_K12], w[W_K22], w[W_C00], w[W_C01], w[W_C02],
+     w[W_DET]) = weld_terms(inv_mass[a], inv_inertia[a], inv_mass[b], inv_inertia[b], rbx, rby)
     weld_push(vel, a, b, (rbx, rby), (work[q, W_JX], work[q, W_JY], work[q, W_JZ]),
-              (robot.inv_mass, robot.inv_inertia))
+              (inv_mass, inv_inertia))
 
 
 @njit(inline="always")
 def weld_solve(q, a, b, work, vel, inv_mass, inv_inertia):
     rbx = work[q, W_RBX]
     rby = work[q, W_RBY]
-    jx, jy, jz = weld_impulse(rbx, rby, inv_mass[a], inv_inertia[a], inv_mass[b],
-                              inv_inertia[b], vel[a, 0], vel[a, 1], vel[a, 2], vel[b, 0],
-                              vel[b, 1], vel[b, 2])
+    w = work[q]
+    jx, jy, jz = weld_impulse(rbx, rby, (w[W_K00], w[W_K01], w[W_K02], w[W_K11], w[W_K12],
+                                         w[W_K22], w[W_C00], w[W_C01], w[W_C02], w[W_DET]),
+                              vel[a, 0], vel[a, 1], vel[a, 2], vel[b, 0], vel[b, 1], vel[b, 2])
     work[q, W_JX] += jx
     work[q, W_JY] += jy
     work[q, W_JZ] += jz
@@ -581,9 +617,17 @@ def start_contacts(robot, scratch, pos, vel, params):
         a = int(c[k, C_A])
         b = int(c[k, C_B])
         k00, k01, k11 = pair_matrix(c, k, a, b, inv_mass, inv_inertia)
-        if not k00 * k00 < CONDITION_LIMIT * (k00 * k11 - k01 * k01):
+        det = k00 * k11 - k01 * k01
+        if not k00 * k00 < CONDITION_LIMIT * det:
             drop = k + 1 if c[k, C_DEPTH] > c[k + 1, C_DEPTH] else k
             c[drop, C_LIVE] = 0.0
+        # What the block solver (solve_pair) needs of the pair, once a step, not once a pass.
+        c[k, C_K00] = k00
+        c[k, C_K01] = k01
+        c[k, C_K11] = k11
+        c[k, C_I00] = k11 / det
+        c[k, C_I01] = -k01 / det
+        c[k, C_I11] = k00 / det
     for k in range(n):
         if c[k, C_LIVE] == 0.0:
             continue
@@ -636,11 +680,12 @@ def solve_pair(c, k, vel, inv_mass, inv_inertia):
     b = int(c[k, C_B])
     nx = c[k, C_NX]
     ny = c[k, C_NY]
-    k00, k01, k11 = pair_matrix(c, k, a, b, inv_mass, inv_inertia)
-    det = k00 * k11 - k01 * k01
-    i00 = k11 / det
-    i01 = -k01 / det
-    i11 = k00 / det
+    k00 = c[k, C_K00]
+    k01 = c[k, C_K01]
+    k11 = c[k, C_K11]
+    i00 = c[k, C_I00]
+    i01 = c[k, C_I01]
+    i11 = c[k, C_I11]
     a1 = c[k, C_JN]
     a2 = c[k + 1, C_JN]
     v1x, v1y = relative_velocity(vel, a, b, c[k, C_RAX], c[k, C_RAY], c[k, C_RBX], c[k, C_RBY])

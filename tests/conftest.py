@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import fcntl
-import os
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -16,44 +13,10 @@ from somite.sim.config import SimConfig
 from somite.sim.system import geometry
 
 
-def _compile_batch_kernel() -> None:
-    from somite.brain.controllers import Zero
-    from somite.sim.terrain import parse_terrain
-    from somite.tasks.locomotion import simulate_batch
-
-    simulate_batch([Body.build("worm")], [parse_terrain("flat")], [Zero()],
-                   SimConfig(duration=1 / 60))
-
-
-def _compile_stepper() -> None:
-    from somite.brain.controllers import Zero
-    from somite.tasks.stepper import Episode
-
-    Episode([Zero()], "flat", SimConfig(duration=1 / 60), bodies=[Body.build("worm")]).run()
-
-
-@contextmanager
-def _held(path: Path):
-    with open(path, "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(lock, fcntl.LOCK_UN)
-
-
-@pytest.fixture(scope="session", autouse=True)
-def _kernels_compiled_once(tmp_path_factory):
-    """Each kernel compiled by one test worker while the other waits and then loads it from
-    Numba's cache (two workers compiling the same kernel cold took a third of the suite's
-    time); the two workers start on different kernels."""
-    shared = tmp_path_factory.getbasetemp().parent  # one folder for all xdist workers
-    kernels = [_compile_batch_kernel, _compile_stepper]
-    if int(os.environ.get("PYTEST_XDIST_WORKER", "gw0")[2:] or 0) % 2:
-        kernels.reverse()
-    for compile_kernel in kernels:
-        with _held(shared / f"{compile_kernel.__name__}.lock"):
-            compile_kernel()
+# No fixture compiles the kernels up front: a test compiles what it calls, when it calls it, and
+# a test worker (or a subprocess: a CLI run, a Dask worker) that needs a kernel another process
+# is compiling waits for it and loads it from the cache (somite._jit's per-kernel lock), so the
+# tests that need no kernel run at once and no kernel is compiled twice at the same time.
 
 
 @pytest.fixture(scope="session")

@@ -10,6 +10,9 @@ type into its fields of :class:`Controllers`) and a branch of :func:`control`. I
 
 from __future__ import annotations
 
+import dataclasses
+import functools
+import operator
 from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
@@ -21,10 +24,6 @@ from ..errors import bad, bad_type
 from .controllers import GraphArrays, Sine, Table, Zero
 from .kernels import Graph, graph_step
 from .openloop import sine_actuation, table_actuation
-
-Controller = Zero | Sine | Table | GraphArrays
-"""A controller specification of any type of :data:`CONTROLLER_TYPES`."""
-
 
 class Controllers(NamedTuple):
     """Controllers of a batch, padded (N nodes, E edges, L table rows)."""
@@ -128,6 +127,9 @@ CONTROLLER_TYPES = (
 )
 """Every controller type; a type's position here is its code."""
 
+Controller = functools.reduce(operator.or_, (entry.spec for entry in CONTROLLER_TYPES))
+"""A controller specification of any type of :data:`CONTROLLER_TYPES` (their union)."""
+
 TYPE_CODE = {entry.name: code for code, entry in enumerate(CONTROLLER_TYPES)}
 """Type name -> code."""
 
@@ -142,6 +144,54 @@ def type_code(field: str, spec) -> int:
             return code
     accepted = ", ".join(entry.shown for entry in CONTROLLER_TYPES)
     raise bad_type(field, spec, f"a controller ({accepted}) or a Genome")
+
+
+def _text_fields(spec: type) -> tuple | None:
+    """The fields of a specification class as the command line gives them (every field a number
+    with a default), or None when it cannot be written as text (a table, a graph)."""
+    fields = dataclasses.fields(spec)
+    if all(type(f.default) in (int, float) for f in fields):
+        return fields
+    return None
+
+
+WRITTEN = {entry.name: _text_fields(entry.spec) for entry in CONTROLLER_TYPES
+           if _text_fields(entry.spec) is not None}
+"""Type name -> its fields, for the types that ``--controller`` can name (text)."""
+
+def _written(name: str, fields: tuple, defaults: bool) -> str:
+    if not fields:
+        return name
+    text = f"{name}:" + ",".join(f"{f.name}={f.name[0].upper()}" for f in fields)
+    return text + (" (" + ", ".join(f"{f.default:g}" for f in fields) + ")" if defaults else "")
+
+
+CONTROLLER_HELP = ", or ".join(_written(name, fields, True) for name, fields in WRITTEN.items())
+"""How a controller is written on the command line, e.g. ``zero, or sine:freq=F,amp=A,phase=P
+(1, 1, -1)``: every type of :data:`WRITTEN`, with its defaults."""
+
+
+def parse_controller(text: str):
+    """A controller of a type of :data:`WRITTEN` from text: its name, then for a type with
+    fields ``:key=value,...`` (any subset; the others keep their defaults)."""
+    spec = str(text).strip()
+    name, colon, given = spec.partition(":")
+    fields = WRITTEN.get(name)
+    if fields is None or (colon and not fields):
+        written = " or ".join(_written(n, f, False) for n, f in WRITTEN.items())
+        raise bad("controller", text, f"use {written}")
+    names = [f.name for f in fields]
+    options: dict[str, float] = {}
+    for item in filter(None, given.split(",")):
+        key, _, value = item.partition("=")
+        key = key.strip()
+        if key not in names:
+            raise bad("controller", text, f"unknown {name} parameter {key!r}")
+        try:
+            options[key] = float(value)
+        except ValueError:
+            raise bad(f"controller.{key}", value, "must be a number") from None
+    return CONTROLLER_TYPES[TYPE_CODE[name]].spec(**options)
 
 
 def compile_controllers(controllers: Sequence[Controller], n_voxels: Sequence[int]) -> Controllers:
@@ -178,6 +228,6 @@ def control(b, k, t, ctrl, io, params) -> None:
         graph_step(graph, old, new, io.readings, io.actuation, params.hidden_sigmoid)
 
 
-__all__ = ["CONTROLLER_TYPES", "GRAPH", "SINE", "TABLE", "TYPE_CODE", "ZERO", "ControlIO",
-           "Controller", "ControllerType", "Controllers", "compile_controllers", "control",
-           "type_code"]
+__all__ = ["CONTROLLER_HELP", "CONTROLLER_TYPES", "GRAPH", "SINE", "TABLE", "TYPE_CODE", "WRITTEN",
+           "ZERO", "ControlIO", "Controller", "ControllerType", "Controllers",
+           "compile_controllers", "control", "parse_controller", "type_code"]

@@ -7,7 +7,6 @@ flattened to arrays (the genome of :mod:`somite.brain.genome` compiles to it).
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,27 +72,3 @@ class GraphArrays:
     @property
     def n_edges(self) -> int:
         return len(self.src)
-
-
-_SINE = re.compile(r"^sine(?::(.*))?$")
-
-
-def parse_controller(text: str) -> Zero | Sine:
-    """``zero`` or ``sine[:freq=F,amp=A,phase=P]`` (any subset, defaults 1, 1, -1)."""
-    spec = str(text).strip()
-    if spec == "zero":
-        return Zero()
-    match = _SINE.match(spec)
-    if not match:
-        raise bad("controller", text, "use zero or sine:freq=F,amp=A,phase=P")
-    options: dict[str, float] = {}
-    for item in filter(None, (match.group(1) or "").split(",")):
-        key, _, value = item.partition("=")
-        key = key.strip()
-        if key not in ("freq", "amp", "phase"):
-            raise bad("controller", text, f"unknown sine parameter {key!r}")
-        try:
-            options[key] = float(value)
-        except ValueError:
-            raise bad(f"controller.{key}", value, "must be a number") from None
-    return Sine(**options)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from ..brain.compile import compile_genome
-from ..brain.controllers import parse_controller
+from ..brain.control import CONTROLLER_HELP, parse_controller
 from ..errors import bad
 from ..experiments.origin import origin_of
 from ..sim.body import Body
@@ -35,7 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--terrain", default="flat", help=TERRAIN_HELP)
     parser.add_argument(
         "--controller", default=None,
-        help="zero, or sine:freq=F,amp=A,phase=P (1, 1, -1) (default: --genome's, else sine)",
+        help=f"{CONTROLLER_HELP} (default: --genome's, else sine)",
     )
     parser.add_argument("--genome", default=None,
                         help="simulate this genome (a genome JSON or a run directory): its body "

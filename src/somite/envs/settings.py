@@ -20,6 +20,7 @@ from ..errors import bad
 from ..sim.body import Body, Shape
 from ..sim.config import CONTROL_HZ, SimConfig
 from ..sim.config import preset as sim_preset
+from ..sim.sensor_kinds import component_name
 from ..sim.sensors import noise_table
 from ..sim.terrain import Terrain, parse_terrain
 from ..tasks.distributions import TerrainDistribution, parse_distribution
@@ -73,12 +74,8 @@ class EnvSettings:
         names = []
         for reading in self.body.readings:
             x, y = self.body.shape.voxels[reading.voxel]
-            name = f"v{reading.voxel}({x},{y}).{reading.kind}"
-            if reading.kind == "velocity":
-                name += ".xy"[reading.component + 1]
-            elif reading.kind == "lidar":
-                name += f".{reading.component}"
-            names.append(name)
+            ending = component_name(reading.kind, reading.component)
+            names.append(f"v{reading.voxel}({x},{y}).{ending}")
         return tuple(names)
 
     @cached_property

@@ -9,9 +9,9 @@ fields it reads. A kind's code is its position in the table, and the sensing ker
 code, derived from the table (:func:`reading_code`). The table's order is also the order
 in which a voxel lists its sensors when built from a preset or a mapping.
 
-Numba's on-disk cache only notices edits to the file that defines a kernel: the kernels of
-:mod:`somite.sim.sensors` compile these codes and strides in, so edit both files together or
-clear the ``__pycache__`` folders.
+The kernels of :mod:`somite.sim.sensors` compile these codes and strides in; the compiled
+kernels are cached under a hash of every kernel source (:mod:`somite._jit`), so an edit of
+either file is seen on the next call.
 """
 
 from __future__ import annotations
@@ -35,13 +35,16 @@ class SensorKind(NamedTuple):
     settings: tuple[str, ...]
     """The :class:`~somite.sim.config.SimConfig` fields that only this kind reads (besides the
     noise and ``voxel_angle``, which voxel-frame sensors share)."""
+    components: tuple[str, ...] = ()
+    """Names of its components, as observation names end (``velocity.x``); empty: numbered
+    0 .. width - 1 (``lidar.2``), a kind of width 1 none."""
 
 
 SENSORS = (
     SensorKind("area", 1, (255, 255, 255), 1, ()),
     SensorKind("touch", 1, (20, 20, 20), 1, ("touch_window",)),
     SensorKind("velocity", 2, (40, 100, 210), 2,
-               ("velocity_window", "velocity_frame", "velocity_max")),
+               ("velocity_window", "velocity_frame", "velocity_max"), ("x", "y")),
     SensorKind("lidar", 5, (220, 30, 30), 5, ("lidar_range", "lidar_angles", "lidar_frame")),
 )
 """Every sensor kind; a kind's position here is its code."""
@@ -65,6 +68,15 @@ READING_COMPONENT = np.array([c for kind in SENSORS for c in range(kind.width)],
 """Reading code -> component (0 .. width - 1) of its kind."""
 
 
+def component_name(kind: str, component: int) -> str:
+    """How observation names end for component ``component`` of a sensor of kind ``kind``:
+    ``velocity.x``, ``lidar.2``, ``touch``."""
+    row = SENSORS[SENSOR_CODE[kind]]
+    if row.components:
+        return f"{kind}.{row.components[component]}"
+    return kind if row.width == 1 else f"{kind}.{component}"
+
+
 def reading_code(kind: str, component: int) -> int:
     """The reading code of component ``component`` of a sensor of kind ``kind``."""
     code = SENSOR_CODE[kind]
@@ -72,4 +84,4 @@ def reading_code(kind: str, component: int) -> int:
 
 
 __all__ = ["AREA", "LIDAR", "NOISE_STRIDE", "READING_COMPONENT", "READING_KIND", "SENSORS",
-           "SENSOR_CODE", "TOUCH", "VELOCITY", "SensorKind", "reading_code"]
+           "SENSOR_CODE", "TOUCH", "VELOCITY", "SensorKind", "component_name", "reading_code"]

@@ -32,11 +32,15 @@ _PHASE_OPTIONS = {**{k: v for k, v in OPTIONS.items() if k != "cache"}, "_nrt": 
 
 
 def _phase(name: str, doc: str):
-    """A phase of :func:`step`: a function that Numba resolves by the solver's type (called
-    from Python, it says that no kind does it)."""
+    """A phase of :func:`step`: a function that Numba resolves by the solver's type; called
+    from Python (``NUMBA_DISABLE_JIT=1``, to step through it), the same implementation by the
+    solver's class, or a TypeError when no kind does it."""
 
     def phase(solver, params):
-        raise TypeError(f"no physics step for a solver of type {type(solver).__name__}")
+        function = phase.implementations.get(type(solver))
+        if function is None:
+            raise TypeError(f"no physics step for a solver of type {type(solver).__name__}")
+        return function(solver, params)
 
     phase.__name__ = phase.__qualname__ = name
     phase.__doc__ = doc

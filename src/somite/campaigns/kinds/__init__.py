@@ -8,9 +8,10 @@ the fields of :class:`somite.report.load.Loaded`), how far it has got (``progres
 it will cost (``estimate``, robot-control-steps). A kind without ``expand`` is made by
 another kind's experiment (a re-optimisation by a reassembly's). The campaign file, the
 task list, ``campaign.json``'s checks, the workers, the progress view, ``campaign list`` and
-the report all read this registry: a new kind is an entry here (and its module). What a kind of
-experiment adds to the report (its figures, tables and text) is its section there, listed by
-kind in ``somite/report/sections.py`` (docs/architecture.md, "Where a new thing goes").
+the report all read this registry: a new kind is its module and its place in ``MODULES``
+(nothing else here names it). What a kind of experiment adds to the report (its figures,
+tables and text) is its section there, listed by kind in ``somite/report/sections.py``
+(docs/architecture.md, "Where a new thing goes").
 """
 
 from __future__ import annotations
@@ -39,18 +40,22 @@ class TaskKind:
     fields: frozenset[str] = frozenset()
 
 
-TASK_KINDS: dict[str, TaskKind] = {
-    "evolve": TaskKind(evolve.run, evolve.check, evolve.read, evolve.progress, evolve.estimate,
-                       evolve.OUTPUTS, evolve.expand, evolve.parse, evolve.FIELDS),
-    "reassemble": TaskKind(reassemble.run, reassemble.check, reassemble.read,
-                           reassemble.progress, reassemble.estimate, reassemble.OUTPUTS,
-                           reassemble.expand, reassemble.parse, reassemble.FIELDS),
-    "reoptimize": TaskKind(reoptimize.run, reoptimize.check, reoptimize.read,
-                           reoptimize.progress, reoptimize.estimate, reoptimize.OUTPUTS),
-    "discover": TaskKind(discover.run, discover.check, discover.read, discover.progress,
-                         discover.estimate, discover.OUTPUTS, discover.expand, discover.parse,
-                         discover.FIELDS),
-}
+    @classmethod
+    def of(cls, module) -> TaskKind:
+        """The kind that ``module`` (of this package) defines, read by name: its functions
+        ``run``, ``check``, ``read``, ``progress``, ``estimate`` and ``OUTPUTS``; ``expand``,
+        ``parse`` and ``FIELDS`` if an experiment of a campaign file may have it."""
+        optional = {name: getattr(module, name) for name in ("expand", "parse", "FIELDS")
+                    if hasattr(module, name)}
+        return cls(module.run, module.check, module.read, module.progress, module.estimate,
+                   module.OUTPUTS, **{name.lower(): value for name, value in optional.items()})
+
+
+MODULES = (evolve, reassemble, reoptimize, discover)
+"""The kinds' modules, in the order tables list them; a kind is named after its module."""
+
+TASK_KINDS: dict[str, TaskKind] = {module.__name__.rpartition(".")[2]: TaskKind.of(module)
+                                   for module in MODULES}
 """Every task kind, in the order tables list them."""
 
 EXPERIMENT_KINDS = tuple(name for name, kind in TASK_KINDS.items() if kind.expand is not None)

@@ -207,6 +207,28 @@ def test_scrubbing_to_t_shows_the_robot_where_the_trace_has_it(tmp_path, worm_ru
         assert np.abs(np.array(shown["points"]) - recording.pos[step]).max() <= reach
 
 
+HOSTILE_NAME = "x<!--<script></script>&\u2028"
+"""A genome file's name that ended the page's data early (issue 71): a blank page."""
+
+
+def test_a_run_name_cannot_end_the_pages_data(worm_runs, tmp_path):
+    genome, graph, _ = worm_runs
+    page = write_replay([ReplayRun(graph, genome, HOSTILE_NAME)], tmp_path / "p.html").read_text()
+    block = re.search(r'type="application/json">(.*?)</script>', page, re.S).group(1)
+    assert not set("<>&\u2028") & set(block)
+    assert decoded_payload(page)["runs"][0]["name"] == HOSTILE_NAME
+
+
+@needs_chromium
+def test_a_page_of_a_hostile_run_name_plays_and_shows_it(tmp_path, worm_runs):
+    genome, graph, _ = worm_runs
+    page = write_replay([ReplayRun(graph, genome, HOSTILE_NAME)], tmp_path / "p.html",
+                        title=HOSTILE_NAME)
+    attrs, console = page_state(tmp_path, page, "t=0.5&probe")
+    assert attrs.get("data-ready") == "1" and "data-errors" not in attrs, console[-2000:]
+    assert json.loads(attrs["data-probe"])[0]["step"] == 30
+
+
 @needs_chromium
 def test_frame_keys_step_and_change_speed(tmp_path, compare_page):
     steps = ["ArrowRight", "ArrowRight", "ArrowRight", "ArrowLeft", "shift%2BArrowRight"]

@@ -336,9 +336,13 @@ def _table(directory: Path, doc: dict, infos: list[dict], compact: bool = False)
     rather than cut."""
     from rich.table import Table
 
+    from .._visible import for_terminal
+
     # Compact, the first column starts flush left: the longest names need that character.
     # The unit on a line of its own: appended, it wrapped mid-phrase on a narrow table.
-    grid = Table(title=f"campaign {doc.get('name')} in {directory}\nv_x in m/s",
+    # The name and folder are shown, never obeyed: escapes, rich markup and all.
+    grid = Table(title=f"campaign {for_terminal(doc.get('name'))} in {for_terminal(directory)}"
+                 "\nv_x in m/s",
                  **_style(compact), pad_edge=not compact)
     for name in ("task", "kind", "state", "generation", "best v_x", "validation v_x"):
         grid.add_column(name.replace(" ", "\n") if compact else name,
@@ -418,6 +422,8 @@ class LiveView:
         from rich.console import Group
         from rich.text import Text
 
+        from .._visible import visible
+
         from ..campaigns.progress import snapshot, states
 
         now = snapshot(self.doc, states(self.directory, self.doc))
@@ -436,7 +442,8 @@ class LiveView:
         if not full:
             return summary
         lines = [
-            Text(f"campaign {self.doc.get('name')} -> {self.directory}", style="bold"),
+            Text(f"campaign {visible(self.doc.get('name'))} -> {visible(self.directory)}",
+                 style="bold"),
             Text(summary),
             Text("dashboard: " + (self.dashboard or "none (Dask's needs bokeh: pip install "
                                   "'somite[dashboard]')")),

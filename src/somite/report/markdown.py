@@ -9,7 +9,8 @@ from __future__ import annotations
 from ..analysis.stats import MIN_GROUP_SIZE
 from ..campaigns.figures import FIGURES as DECLARABLE
 from . import sections
-from .text import FIGURES, images, median_sd, number, table
+from .._visible import visible
+from .text import FIGURES, images, median_sd, number, plain, table
 
 
 def render_markdown(report: dict) -> str:
@@ -23,9 +24,10 @@ def render_markdown(report: dict) -> str:
 def _head(report: dict) -> list[str]:
     c = report["campaign"]
     return [
-        f"# Campaign report: {c['name']}", "",
+        f"# Campaign report: {plain(c['name'])}", "",
         *_banner(report),
-        f"Campaign `{c['directory']}` ({c['source'] or 'no source recorded'}), written by "
+        f"Campaign `{_code(c['directory'])}` ({plain(c['source'] or 'no source recorded')}), "
+        "written by "
         "`somite report`. Every number below is also in `report.json`; figures are in "
         "`figures/` as PNG and SVG. Medians and standard deviations (ddof 0) are across runs; "
         "p-values are two-sided Mann-Whitney U tests (scipy); a p-value of a group of fewer "
@@ -54,7 +56,7 @@ def _status(report: dict) -> list[str]:
                      ", ".join(s["missing"]) or "none"])
     lines += table(["experiment", "title", "paper", "tasks", "finished", "missing"], rows)
     for task, why in report["status"]["unreadable"].items():
-        lines.append(f"- {task}: finished but unreadable, shown as missing ({why})")
+        lines.append(f"- {task}: finished but unreadable, shown as missing ({plain(why)})")
     if report["status"]["unreadable"]:
         lines.append("")
     return lines + _missing_figures(report)
@@ -192,12 +194,20 @@ def render_html(text: str, title: str) -> str | None:
         from markdown_it import MarkdownIt
     except ImportError:
         return None
-    body = MarkdownIt("commonmark").enable("table").render(text)
+    # Raw HTML off: a title or label of a campaign file (or a pack) is shown as text, never
+    # run as a script; markdown-it also refuses javascript: and data: links.
+    body = MarkdownIt("commonmark", {"html": False}).enable("table").render(text)
     style = ("body{font-family:sans-serif;max-width:72em;margin:2em auto;padding:0 1em}"
              "table{border-collapse:collapse;font-size:0.85em}td,th{border:1px solid #ccc;"
              "padding:2px 6px}img{max-width:100%}")
-    return (f"<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{_escape(title)}"
+    title = _escape(visible(title))
+    return (f"<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{title}"
             f"</title><style>{style}</style></head><body>\n{body}</body></html>\n")
+
+
+def _code(text: str) -> str:
+    """A path inside a code span: a backtick would end it."""
+    return visible(text).replace("`", "'")
 
 
 def _escape(text: str) -> str:

@@ -5,6 +5,9 @@ experiment kind's section (:mod:`.sections`) write with them."""
 from __future__ import annotations
 
 import math
+import re
+
+from .._visible import visible
 
 FIGURES = "figures"
 """The report's folder of figures, as index.md links it."""
@@ -30,9 +33,21 @@ def p_value(value) -> str:
     return "< 0.001" if value < 0.001 else f"{value:.3g}"
 
 
+def plain(text) -> str:
+    """Text a campaign file or pack supplies (a name, a title, a label), as markdown shows it:
+    control characters written out (:func:`somite._visible.visible`), and the characters that
+    would make it a link, an image (fetched when the page opens) or split a table's row
+    escaped. Emphasis is left: it cannot reach outside the text."""
+    return _MARKDOWN.sub(r"\\\g<0>", visible(text))
+
+
+_MARKDOWN = re.compile(r"[\\\[\]|]")
+
+
 def table(header: list[str], rows: list[list]) -> list[str]:
+    """A markdown table; each cell through :func:`plain` (labels and titles are the user's)."""
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    lines += ["| " + " | ".join(plain(c) for c in row) + " |" for row in rows]
     return lines + [""]
 
 
@@ -74,5 +89,5 @@ def pair_rows(comparison: dict, label: str) -> list[list]:
              p_noted(t)] for t in comparison["tests"]]
 
 
-__all__ = ["FIGURES", "claim", "images", "median_sd", "number", "p_noted", "p_value",
+__all__ = ["FIGURES", "claim", "images", "median_sd", "number", "p_noted", "p_value", "plain",
            "pair_rows", "table", "tests_table"]

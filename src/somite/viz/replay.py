@@ -205,10 +205,22 @@ def replay_html(runs: Sequence[ReplayRun], title: str = "somite replay",
         raise bad("runs", 0, "a replay page needs at least one episode")
     data = {"style": page_style(), "speed": check_speed(speed),
             "runs": [run_payload(r) for r in runs]}
-    # "</" never appears inside the script element that holds the data.
-    text = json.dumps(data, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+    text = _script_safe(json.dumps(data, separators=(",", ":"), allow_nan=False))
     script = resources.files(__package__).joinpath("replay.js").read_text(encoding="utf-8")
     return _TEMPLATE.format(title=html.escape(title), data=text, script=script)
+
+
+# Inside a <script> element the HTML parser ends the data at "</script" and reads "<!--" as
+# the start of an escape that swallows the page's own script: a run's name (a genome's file
+# name) holding either left a blank page. As JSON escapes none of these can appear; U+2028/9
+# too, which older JavaScript reads as line breaks.
+_UNSAFE = {"<": "\\u003c", ">": "\\u003e", "&": "\\u0026", "\u2028": "\\u2028",
+           "\u2029": "\\u2029"}
+
+
+def _script_safe(text: str) -> str:
+    """JSON text ``text`` safe inside a script element, the same JSON once parsed."""
+    return text.translate(str.maketrans(_UNSAFE))
 
 
 def write_replay(runs: Sequence[ReplayRun], out_path: str | os.PathLike,

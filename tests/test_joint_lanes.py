@@ -42,6 +42,16 @@ def _states(robot, seed):
     return pos, vel, rest, impulse
 
 
+def _orders(robot):
+    """The lanes' order of the springs, rope limits and welds (not their index order: the
+    one-robot passes go in index order, so the tests below check that the orders give the same
+    bits)."""
+    orders = [jl.exact_order(ends, robot.n_points)
+              for ends in (robot.ends, robot.rope_ends, robot.weld_ends)]
+    assert all((o != np.arange(o.shape[0])).any() for o in orders)
+    return orders
+
+
 @pytest.mark.parametrize("shape", ["worm", "biped"])
 @pytest.mark.parametrize("seed", [0, 1])
 def test_lanes_give_each_robot_the_one_robot_passes_numbers(shape, seed):
@@ -58,7 +68,7 @@ def test_lanes_give_each_robot_the_one_robot_passes_numbers(shape, seed):
         np.empty((p, width)), np.ascontiguousarray(rest.T),
         np.zeros((robot.n_springs, ph.N_SPRING_COLUMNS, width)),
         np.zeros((robot.n_ropes, ph.N_ROPE_COLUMNS, width)),
-        np.zeros((robot.n_welds, ph.N_WELD_COLUMNS, width)))
+        np.zeros((robot.n_welds, ph.N_WELD_COLUMNS, width)), *_orders(robot))
     alone = []
     for g in range(width):
         scratch = new_scratch(robot)
@@ -126,7 +136,7 @@ def test_lanes_move_and_position_passes_match_the_one_robot_passes(shape, seed):
         np.empty((p, width)), np.zeros((robot.n_springs, width)),
         np.zeros((robot.n_springs, ph.N_SPRING_COLUMNS, width)),
         np.zeros((robot.n_ropes, ph.N_ROPE_COLUMNS, width)),
-        np.zeros((robot.n_welds, ph.N_WELD_COLUMNS, width)))
+        np.zeros((robot.n_welds, ph.N_WELD_COLUMNS, width)), *_orders(robot))
     flags = np.zeros((width, 4), dtype=np.bool_)
     flags[6, jl.DONE] = True
     alone = []

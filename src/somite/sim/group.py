@@ -76,12 +76,14 @@ def new_group(system, first, count, masses, spent):
     p, s = system.n_points[first], system.n_springs[first]
     y, q = system.n_ropes[first], system.n_welds[first]
     width = jl.LANES
+    ends, rope_ends = system.spring_ends[first, :s].copy(), system.rope_ends[first, :y].copy()
+    weld_ends = system.weld_ends[first, :q].copy()
     lanes = jl.Lanes(
-        system.spring_ends[first, :s].copy(), system.spring_anchor[first, :s].copy(),
-        system.rope_ends[first, :y].copy(), system.weld_ends[first, :q].copy(),
+        ends, system.spring_anchor[first, :s].copy(), rope_ends, weld_ends,
         system.weld_anchor[first, :q].copy(), masses[0].copy(), masses[1].copy(),
         np.empty((p, 3, width)), np.empty((p, 3, width)), np.empty((p, width)),
         np.empty((p, width)), np.zeros((s, width)), np.zeros((s, N_SPRING_COLUMNS, width)),
-        np.zeros((y, N_ROPE_COLUMNS, width)), np.zeros((q, N_WELD_COLUMNS, width)))
+        np.zeros((y, N_ROPE_COLUMNS, width)), np.zeros((q, N_WELD_COLUMNS, width)),
+        jl.exact_order(ends, p), jl.exact_order(rope_ends, p), jl.exact_order(weld_ends, p))
     return Group(first, count, lanes, np.arange(first, first + count),
                  np.empty((width, 4), dtype=np.bool_), spent, np.zeros(1, dtype=np.uint64))

@@ -62,14 +62,16 @@ DONE, CONTACTS_HELD, ROPES_HELD, WELDS_HELD = range(4)
 
 
 @uncounted
-def start_springs(ends, anchor, rest, work, state, masses, terms):
+def start_springs(joints, anchor, rest, work, state, masses, terms):
     """Each spring set up for this step and warm-started (``physics.spring_setup``):
     ``state`` = (pos, vel, cos, sin), ``masses`` = (inv_mass, inv_inertia), ``terms`` = (dt,
     omega, damping_ratio)."""
+    ends, order = joints
     pos, vel, cos, sin = state
     inv_mass, inv_inertia = masses
     dt, omega, damping_ratio = terms
-    for m in range(ends.shape[0]):
+    for i in range(order.shape[0]):
+        m = order[i]
         a = ends[m, 0]
         b = ends[m, 1]
         ima = inv_mass[a]
@@ -371,9 +373,11 @@ def start_springs(ends, anchor, rest, work, state, masses, terms):
         vb[2, 7] = b2_7
 
 @uncounted
-def solve_springs(ends, work, vel, inv_mass, inv_inertia):
+def solve_springs(joints, work, vel, inv_mass, inv_inertia):
     """One velocity pass over the springs (``physics.spring_solve``)."""
-    for m in range(ends.shape[0]):
+    ends, order = joints
+    for i in range(order.shape[0]):
+        m = order[i]
         a = ends[m, 0]
         b = ends[m, 1]
         ima = inv_mass[a]
@@ -585,9 +589,11 @@ def solve_springs(ends, work, vel, inv_mass, inv_inertia):
         vb[2, 7] = b2_7
 
 @uncounted
-def start_ropes(ends, work, pos, vel, inv_mass, inv_inertia):
+def start_ropes(joints, work, pos, vel, inv_mass, inv_inertia):
     """Each rope limit set up for this step and warm-started (``physics.rope_setup``)."""
-    for m in range(ends.shape[0]):
+    ends, order = joints
+    for i in range(order.shape[0]):
+        m = order[i]
         a = ends[m, 0]
         b = ends[m, 1]
         ima = inv_mass[a]
@@ -874,9 +880,11 @@ def start_ropes(ends, work, pos, vel, inv_mass, inv_inertia):
         vb[2, 7] = b2_7
 
 @uncounted
-def solve_ropes(ends, work, vel, inv_mass, inv_inertia):
+def solve_ropes(joints, work, vel, inv_mass, inv_inertia):
     """One velocity pass over the active rope limits (``physics.rope_solve``)."""
-    for m in range(ends.shape[0]):
+    ends, order = joints
+    for i in range(order.shape[0]):
+        m = order[i]
         a = ends[m, 0]
         b = ends[m, 1]
         ima = inv_mass[a]
@@ -1096,9 +1104,11 @@ def solve_ropes(ends, work, vel, inv_mass, inv_inertia):
         vb[2, 7] = b2_7
 
 @uncounted
-def start_welds(ends, anchor, work, vel, cos, sin, inv_mass, inv_inertia):
+def start_welds(joints, anchor, work, vel, cos, sin, inv_mass, inv_inertia):
     """Each weld set up for this step and warm-started (``physics.weld_setup``)."""
-    for m in range(ends.shape[0]):
+    ends, order = joints
+    for i in range(order.shape[0]):
+        m = order[i]
         a = ends[m, 0]
         b = ends[m, 1]
         ima = inv_mass[a]
@@ -1370,9 +1380,11 @@ def start_welds(ends, anchor, work, vel, cos, sin, inv_mass, inv_inertia):
         vb[2, 7] = b2_7
 
 @uncounted
-def solve_welds(ends, work, vel, inv_mass, inv_inertia):
+def solve_welds(joints, work, vel, inv_mass, inv_inertia):
     """One velocity pass over the welds (``physics.weld_solve``)."""
-    for m in range(ends.shape[0]):
+    ends, order = joints
+    for i in range(order.shape[0]):
+        m = order[i]
         a = ends[m, 0]
         b = ends[m, 1]
         ima = inv_mass[a]
@@ -1775,9 +1787,10 @@ def move(pos, vel, cos, sin, dt):
         sin[p, 7] = s_7
 
 @uncounted
-def fix_ropes(ends, pos, inv_mass, inv_inertia, flags):
+def fix_ropes(joints, pos, inv_mass, inv_inertia, flags):
     """One position pass over the rope limits of the busy lanes (``physics.rope_fix``);
 ``flags[l, ROPES_HELD]``: whether lane l's all hold."""
+    ends, order = joints
     busy_0 = not flags[0, DONE]
     busy_1 = not flags[1, DONE]
     busy_2 = not flags[2, DONE]
@@ -1794,7 +1807,8 @@ def fix_ropes(ends, pos, inv_mass, inv_inertia, flags):
     held_5 = True
     held_6 = True
     held_7 = True
-    for m in range(ends.shape[0]):
+    for i in range(order.shape[0]):
+        m = order[i]
         a = ends[m, 0]
         b = ends[m, 1]
         ima = inv_mass[a]
@@ -1941,9 +1955,10 @@ def fix_ropes(ends, pos, inv_mass, inv_inertia, flags):
     flags[7, ROPES_HELD] = held_7
 
 @uncounted
-def fix_welds(ends, anchor, pos, cos, sin, inv_mass, inv_inertia, flags):
+def fix_welds(joints, anchor, pos, cos, sin, inv_mass, inv_inertia, flags):
     """One position pass over the welds of the busy lanes (``physics.weld_fix``);
 ``flags[l, WELDS_HELD]``: whether lane l's all hold."""
+    ends, order = joints
     busy_0 = not flags[0, DONE]
     busy_1 = not flags[1, DONE]
     busy_2 = not flags[2, DONE]
@@ -1960,7 +1975,8 @@ def fix_welds(ends, anchor, pos, cos, sin, inv_mass, inv_inertia, flags):
     held_5 = True
     held_6 = True
     held_7 = True
-    for m in range(ends.shape[0]):
+    for i in range(order.shape[0]):
+        m = order[i]
         a = ends[m, 0]
         b = ends[m, 1]
         ima = inv_mass[a]

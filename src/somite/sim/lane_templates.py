@@ -32,7 +32,11 @@ PHYSICS = ("rotated", "spring_terms", "spring_impulse", "pushed", "unit", "rope_
            "W_C01", "W_C02", "W_DET")
 """What the generated passes take from :mod:`somite.sim.physics`."""
 
-_JOINTS = ("for m in range(ends.shape[0]):", "a = ends[m, 0]", "b = ends[m, 1]")
+# A joint pass takes ``joints`` = (ends, order) and goes over the joints in ``order``
+# (joint_lanes.exact_order: an order of the same bits that puts joints on other blocks side by
+# side, so that their chains of dependent arithmetic overlap).
+_JOINTS = ("for i in range(order.shape[0]):", "m = order[i]", "a = ends[m, 0]",
+           "b = ends[m, 1]")
 _PASSES: list[str] = []
 
 
@@ -46,6 +50,8 @@ def _pass(name: str, args: str, joint: list[str], load: list[str], compute: list
     # Called, not inlined: a pass is long enough that a call costs nothing, and each is
     # compiled once (inlining its eight copies of the arithmetic into every caller cost a
     # minute of compiling).
+    if loop is _JOINTS:
+        unpack = ("ends, order = joints", *unpack)
     lines = ["", "", "@uncounted", f"def {name}({args}):", f'    """{doc}"""']
     lines += ["    " + line for line in unpack]
     lines += ["    " + line.format(l=lane) for line in before for lane in range(LANES)]
@@ -68,7 +74,7 @@ _NEW = "a0_{l}, a1_{l}, a2_{l}, b0_{l}, b1_{l}, b2_{l} = "
 _OLD = "a0_{l}, a1_{l}, a2_{l}, b0_{l}, b1_{l}, b2_{l}"
 
 _pass(
-    "start_springs", "ends, anchor, rest, work, state, masses, terms",
+    "start_springs", "joints, anchor, rest, work, state, masses, terms",
     _MASSES + ["pa = pos[a]", "pb = pos[b]", "ca = cos[a]", "sa = sin[a]", "cb = cos[b]",
                "sb = sin[b]", "oax = anchor[m, 0]", "oay = anchor[m, 1]", "obx = anchor[m, 2]",
                "oby = anchor[m, 3]"],
@@ -94,7 +100,7 @@ _pass(
             "dt, omega, damping_ratio = terms"))
 
 _pass(
-    "solve_springs", "ends, work, vel, inv_mass, inv_inertia", _MASSES,
+    "solve_springs", "joints, work, vel, inv_mass, inv_inertia", _MASSES,
     _VELOCITIES + ["rax_{l} = w[J_RAX, {l}]", "ray_{l} = w[J_RAY, {l}]",
                    "rbx_{l} = w[J_RBX, {l}]", "rby_{l} = w[J_RBY, {l}]",
                    "nx_{l} = w[J_NX, {l}]", "ny_{l} = w[J_NY, {l}]",
@@ -108,7 +114,7 @@ _pass(
     doc="""One velocity pass over the springs (``physics.spring_solve``).""")
 
 _pass(
-    "start_ropes", "ends, work, pos, vel, inv_mass, inv_inertia",
+    "start_ropes", "joints, work, pos, vel, inv_mass, inv_inertia",
     _MASSES + ["pa = pos[a]", "pb = pos[b]", "mass = 1.0 / (ima + imb)"],
     _VELOCITIES + ["pa0_{l} = pa[0, {l}]", "pa1_{l} = pa[1, {l}]", "pb0_{l} = pb[0, {l}]",
                    "pb1_{l} = pb[1, {l}]", "j_{l} = w[R_IMPULSE, {l}]",
@@ -131,7 +137,7 @@ _pass(
     doc="""Each rope limit set up for this step and warm-started (``physics.rope_setup``).""")
 
 _pass(
-    "solve_ropes", "ends, work, vel, inv_mass, inv_inertia", _MASSES,
+    "solve_ropes", "joints, work, vel, inv_mass, inv_inertia", _MASSES,
     _VELOCITIES + ["on_{l} = w[R_ACTIVE, {l}] != 0.0", "nx_{l} = w[R_NX, {l}]",
                    "ny_{l} = w[R_NY, {l}]", "mass_{l} = w[R_MASS, {l}]",
                    "impulse_{l} = w[R_IMPULSE, {l}]"],
@@ -150,7 +156,7 @@ _WELD_TERMS = ("k00", "k01", "k02", "k11", "k12", "k22", "c00", "c01", "c02", "d
 _K = ", ".join(name + "_{l}" for name in _WELD_TERMS)
 
 _pass(
-    "start_welds", "ends, anchor, work, vel, cos, sin, inv_mass, inv_inertia",
+    "start_welds", "joints, anchor, work, vel, cos, sin, inv_mass, inv_inertia",
     _MASSES + ["cb = cos[b]", "sb = sin[b]", "obx = anchor[m, 0]", "oby = anchor[m, 1]"],
     _VELOCITIES + ["cb_{l} = cb[{l}]", "sb_{l} = sb[{l}]", "jx_{l} = w[W_JX, {l}]",
                    "jy_{l} = w[W_JY, {l}]", "jz_{l} = w[W_JZ, {l}]"],
@@ -163,7 +169,7 @@ _pass(
     doc="""Each weld set up for this step and warm-started (``physics.weld_setup``).""")
 
 _pass(
-    "solve_welds", "ends, work, vel, inv_mass, inv_inertia", _MASSES,
+    "solve_welds", "joints, work, vel, inv_mass, inv_inertia", _MASSES,
     _VELOCITIES + ["rbx_{l} = w[W_RBX, {l}]", "rby_{l} = w[W_RBY, {l}]",
                    "sx_{l} = w[W_JX, {l}]", "sy_{l} = w[W_JY, {l}]", "sz_{l} = w[W_JZ, {l}]"]
     + [f"{name}_{{l}} = w[W_{name.upper()}, {{l}}]" for name in _WELD_TERMS],
@@ -200,7 +206,7 @@ _pass(
     doc="""Every lane's bodies moved with their velocities and turned (``physics.positions``).""")
 
 _pass(
-    "fix_ropes", "ends, pos, inv_mass, inv_inertia, flags",
+    "fix_ropes", "joints, pos, inv_mass, inv_inertia, flags",
     ["ima = inv_mass[a]", "iia = inv_inertia[a]", "imb = inv_mass[b]", "iib = inv_inertia[b]",
      "pa = pos[a]", "pb = pos[b]"],
     _POSITIONS,
@@ -215,7 +221,7 @@ _pass(
 ``flags[l, ROPES_HELD]``: whether lane l's all hold.""")
 
 _pass(
-    "fix_welds", "ends, anchor, pos, cos, sin, inv_mass, inv_inertia, flags",
+    "fix_welds", "joints, anchor, pos, cos, sin, inv_mass, inv_inertia, flags",
     ["ima = inv_mass[a]", "iia = inv_inertia[a]", "imb = inv_mass[b]", "iib = inv_inertia[b]",
      "pa = pos[a]", "pb = pos[b]", "ca = cos[a]", "sa = sin[a]", "cb = cos[b]", "sb = sin[b]",
      "obx = anchor[m, 0]", "oby = anchor[m, 1]"],

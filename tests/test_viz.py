@@ -291,6 +291,27 @@ def test_plot_runs_writes_figure_and_scipy_p_values(tmp_path):
     assert svg.read_text().lstrip().startswith("<?xml")
 
 
+def test_figure5_bars_name_the_papers_one_sided_test_beside_the_two_sided_one():
+    from somite.viz.report_figures import boxes_figure
+
+    # Every graph run ahead of every weights-only run: U = 9, one-sided p = 1/20 (only this
+    # split of the 20 is as extreme in that direction), two-sided 2/20.
+    panels = {"biped": {"topology + weights": [5.0, 6.0, 7.0], "weights only": [1.0, 2.0, 3.0]},
+              "worm": {"topology + weights": [3.0, 5.0, 6.0], "weights only": [4.0, 2.0, 1.0]}}
+    figure = boxes_figure(panels, "v_x", "Figure 5", ("topology + weights", "weights only"))
+    bars = [[t.get_text() for t in axes.texts] for axes in figure.axes]
+    # worm: 8 of 9 pairs ahead: U = 8, one-sided p = 2/20, two-sided 4/20.
+    assert bars == [["one-sided p = 0.05, two-sided p = 0.1"],
+                    ["one-sided p = 0.1, two-sided p = 0.2"]]
+    assert "one-sided p of H1 'topology + weights > weights only' (the paper's test)" in (
+        figure.get_supxlabel())
+    # The other figures (9, 11) keep the two-sided p alone.
+    plain = boxes_figure(panels, "v_x", "Figure 11")
+    assert [[t.get_text() for t in axes.texts] for axes in plain.axes] == [["p = 0.1"],
+                                                                           ["p = 0.2"]]
+    assert plain.get_supxlabel() == ""
+
+
 def test_curves_align_runs_on_generations(tmp_path):
     long = load_run(fake_run(tmp_path, "a", {"shape": "worm"}, 4.0, n_generations=4))
     short_run = load_run(fake_run(tmp_path, "b", {"shape": "worm"}, 1.0, n_generations=2))

@@ -30,7 +30,9 @@ def _head(report: dict) -> list[str]:
         "written by "
         "`somite report`. Every number below is also in `report.json`; figures are in "
         "`figures/` as PNG and SVG. Medians and standard deviations (ddof 0) are across runs; "
-        "p-values are two-sided Mann-Whitney U tests (scipy); a p-value of a group of fewer "
+        "p-values are two-sided Mann-Whitney U tests (scipy), but for Figure 5's one-sided "
+        "test (the paper's), which its table and images name as such; a p-value of a group "
+        "of fewer "
         f"than {MIN_GROUP_SIZE} runs is marked *not meaningful* (with 2 and 2 no data can give "
         "a two-sided p below 1/3). The paper's numbers "
         "(Pigozzi & Medvet) stand beside ours, with where they come from.", "",

@@ -177,9 +177,12 @@ def plot_boxes(
     return plot_samples(axes, samples, "best $v_x$ at the last generation [m/s]")
 
 
-def plot_samples(axes, samples: dict[str, np.ndarray], ylabel: str) -> list[PairTest]:
+def plot_samples(axes, samples: dict[str, np.ndarray], ylabel: str,
+                 one_sided: tuple[str, str] | None = None) -> list[PairTest]:
     """Boxplots of one sample per group, every value as a dot, and the pairwise two-sided
-    Mann-Whitney p-values on bars above; returns the tests drawn."""
+    Mann-Whitney p-values on bars above; returns the tests drawn (two-sided). ``one_sided``
+    (``a``, ``b``): the bar of that pair gives the one-sided p of H1 'a is greater than b'
+    first (the paper's test of Figure 5), the two-sided p after it, each named."""
     samples = {name: np.asarray(values, dtype=np.float64) for name, values in samples.items()}
     samples = {name: values[np.isfinite(values)] for name, values in samples.items()}
     positions = np.arange(1, len(samples) + 1)
@@ -194,7 +197,7 @@ def plot_samples(axes, samples: dict[str, np.ndarray], ylabel: str) -> list[Pair
     for median in parts["medians"]:
         median.set(color="black", lw=1.5)
     tests = pairwise_mann_whitney(samples)
-    _p_value_bars(axes, tests, list(samples), samples)
+    _p_value_bars(axes, tests, list(samples), samples, one_sided)
     axes.set_ylabel(ylabel)
     axes.ticklabel_format(axis="y", useOffset=False)
     axes.tick_params(axis="x", labelrotation=20 if len(samples) > 2 else 0, labelsize=8)
@@ -202,7 +205,8 @@ def plot_samples(axes, samples: dict[str, np.ndarray], ylabel: str) -> list[Pair
     return tests
 
 
-def _p_value_bars(axes, tests: list[PairTest], names: list[str], samples: dict) -> None:
+def _p_value_bars(axes, tests: list[PairTest], names: list[str], samples: dict,
+                  one_sided: tuple[str, str] | None = None) -> None:
     values = np.concatenate([v for v in samples.values()] + [np.zeros(0)])
     if len(values) == 0:
         return
@@ -214,9 +218,24 @@ def _p_value_bars(axes, tests: list[PairTest], names: list[str], samples: dict) 
         a, b = names.index(test.a) + 1, names.index(test.b) + 1
         y = high + level * step
         axes.plot([a, a, b, b], [y - 0.3 * step, y, y, y - 0.3 * step], color="black", lw=0.8)
-        text = _p_text(test.p) + (f" (n < {MIN_GROUP_SIZE})" if test.caveat else "")
+        text = _p_text(test.p)
+        if one_sided is not None and {test.a, test.b} == set(one_sided):
+            a_name, b_name = one_sided
+            greater = mann_whitney_greater(samples[a_name], samples[b_name])
+            text = f"one-sided {_p_text(greater)}, two-sided {_p_text(test.p)}"
+        text += f" (n < {MIN_GROUP_SIZE})" if test.caveat else ""
         axes.text(0.5 * (a + b), y, text, ha="center", va="bottom", fontsize=7)
     axes.set_ylim(low - step, high + (len(order) + 1.2) * step)
+
+
+def mann_whitney_greater(a, b) -> float:
+    """The one-sided Mann-Whitney p of H1 'sample ``a`` is greater than sample ``b``' (NaN
+    when a sample is empty)."""
+    if len(a) == 0 or len(b) == 0:
+        return float("nan")
+    from scipy.stats import mannwhitneyu  # slow to import: only where a figure asks for it
+
+    return float(mannwhitneyu(a, b, alternative="greater").pvalue)
 
 
 def _p_text(p: float) -> str:

@@ -64,14 +64,21 @@ def curves_figure(found: dict, title: str):
     return figure
 
 
-def boxes_figure(panels: dict[str, dict[str, list[float]]], ylabel: str, title: str):
-    """Figures 5, 9 and 11: per shape, one box per group with the pairwise p-values."""
+def boxes_figure(panels: dict[str, dict[str, list[float]]], ylabel: str, title: str,
+                 one_sided: tuple[str, str] | None = None):
+    """Figures 5, 9 and 11: per shape, one box per group with the pairwise p-values
+    (two-sided Mann-Whitney U). ``one_sided`` (``a``, ``b``): that pair's bar also gives the
+    one-sided p of H1 'a is greater than b' (Figure 5: the paper's test), and a line under
+    the panels says which p is which."""
     figure, axes = _figure(len(panels), width=1.6 + 1.2 * max(
         (len(p) for p in panels.values()), default=1))
     for column, (shape, samples) in enumerate(panels.items()):
-        plot_samples(axes[0, column], samples, ylabel)
+        plot_samples(axes[0, column], samples, ylabel, one_sided=one_sided)
         axes[0, column].set_title(shape, fontsize=10)
     figure.suptitle(title, fontsize=10)
+    if one_sided is not None:
+        figure.supxlabel(f"Mann-Whitney U: one-sided p of H1 '{one_sided[0]} > {one_sided[1]}' "
+                         "(the paper's test), then the two-sided p", fontsize=7)
     return figure
 
 

@@ -5,7 +5,9 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 TEST_STAMP := $(VENV)/.installed-test
 
-.PHONY: demo test bench clean
+DOCS_STAMP := $(VENV)/.installed-docs
+
+.PHONY: demo test bench docs clean
 
 # The demo needs somite and its dependencies only; the tests add their own on top.
 $(STAMP): pyproject.toml
@@ -29,8 +31,17 @@ test: $(TEST_STAMP)
 	@echo "running the test suite on every core (6-19 minutes on 2 idle cores, 16-21 beside other work; the first 2 compile the kernels)"
 	$(BIN)/python -m pytest -q -n auto --dist loadfile
 
+$(DOCS_STAMP): $(STAMP)
+	$(BIN)/pip install --progress-bar off -e ".[docs]"
+	touch $(DOCS_STAMP)
+
+# The user guide (docs/*.md) and the API reference (docs/api.rst) as a site; a warning fails it.
+docs: $(DOCS_STAMP)
+	$(BIN)/python -m sphinx -W --keep-going -q -b html docs build/docs
+	@echo "open build/docs/index.html"
+
 bench: $(STAMP)
 	$(BIN)/somite bench
 
 clean:
-	rm -rf $(VENV) demo tour
+	rm -rf $(VENV) demo tour build/docs

@@ -160,6 +160,52 @@ def test_gymnasiums_check_env_passes(shape, terrain):
     check_env(env.unwrapped)
 
 
+@pytest.mark.parametrize("duration", [6.0, 30.0])
+def test_gymnasiums_check_env_passes_past_the_transient(duration):
+    # Over 5 s the episode has a transient, before which v_x does not exist yet: a NaN in
+    # info made two equal steps unequal to the checker.
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(ENV_ID, duration=duration)
+    check_env(env.unwrapped)
+    _, info = env.reset(seed=0)
+    assert "velocity" not in info
+    envs = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point",
+                        duration=duration)
+    _, infos = envs.reset(seed=0)
+    assert not infos["_velocity"].any() and (infos["velocity"] == 0).all()
+
+
+def test_an_env_sequence_replays_bit_for_bit_through_table_and_episode():
+    # A user's sequence found in the env, its first action not zero (the one the robot never
+    # feels: actuation 0 is 0 everywhere, docs/architecture.md "Step 0").
+    terrain, seed, duration = "hilly-1-10-3", 77, 5.5
+    env = gym.make(ENV_ID, terrain="flat", duration=duration)
+    obs, info = env.reset(options={"terrain": terrain, "noise_seed": seed})
+    actions = _actions(np.random.default_rng(5), 330, (12,))
+    for a in actions:
+        obs, reward, terminated, truncated, info = env.step(a)
+    assert truncated and info["step"] == 330
+    body = env.unwrapped.settings.body
+    table = somite.simulate(somite.Table(actions), body=body, terrain=terrain,
+                            duration=duration, seed=seed)
+    assert info["outcome"] == table.to_dict()  # every number, bit for bit
+    assert info["velocity"] == table.velocity
+    config = env.unwrapped.settings.config
+    by_table = somite.Episode([somite.Table(actions)], terrain, config, seeds=seed,
+                              bodies=[body], record=True)
+    by_table.run()
+    given = somite.Episode([somite.Zero()], terrain, config, seeds=seed, bodies=[body],
+                           record=True)
+    for a in actions:
+        given.step(a[None])
+    assert np.array_equal(given.trace.com, by_table.trace.com)
+    # (the last row is a decision for a step that never comes: the table's row 0)
+    assert np.array_equal(given.trace.actuation[:, :-1], by_table.trace.actuation[:, :-1])
+    assert (given.trace.actuation[0, 0] == 0).all()  # the first action was not in force
+    assert np.array_equal(given.trace.actuation[0, 1:-1], actions[1:])
+
+
 def test_gymnasiums_env_checker_passes_with_the_render_check():
     from gymnasium.utils.env_checker import check_env
 

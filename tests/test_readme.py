@@ -1,5 +1,6 @@
 """The README teaches what works: its tutorial runs pasted into a new shell right after
-``make demo``, every ``somite`` command it shows parses, and its Python block runs."""
+``make demo``, every ``somite`` command it and the user guide (docs/guide.md) show parses, and
+the guide's Python block runs."""
 
 from __future__ import annotations
 
@@ -16,11 +17,18 @@ from somite.cli import build_parser
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
+GUIDE = ROOT / "docs" / "guide.md"
+"""The user guide, where the README's reference went: its blocks are tested as the README's."""
+
+
+def _text() -> str:
+    return README.read_text() + "\n" + GUIDE.read_text()
 
 
 def _block(marker: str, language: str) -> str:
-    """The fenced block of ``language`` right after the HTML comment ``marker``."""
-    text = README.read_text()
+    """The fenced block of ``language`` right after the HTML comment ``marker`` (in the README
+    or the user guide)."""
+    text = _text()
     start = text.index(f"<!-- {marker} -->")
     opening = text.index(f"```{language}\n", start) + len(language) + 4
     return text[opening:text.index("```", opening)]
@@ -42,7 +50,7 @@ def _commands(block: str) -> list[str]:
 
 
 def _every_somite_command() -> list[list[str]]:
-    text = README.read_text()
+    text = _text()
     commands = []
     for block in re.findall(r"```sh\n(.*?)```", text, re.S):
         for line in _commands(block):

@@ -442,6 +442,50 @@ def test_a_campaign_of_its_own_names_gets_the_figures_it_declares(campaign, repo
     assert "Figures no experiment" not in (report[0] / "index.md").read_text()
 
 
+def test_a_campaign_without_figures_says_not_declared_and_groups_its_variants(campaign,
+                                                                             report, tmp_path):
+    """The user guide's kind of campaign file: one evolve experiment with two variants
+    (rq1's runs as ``base/modular``, ablation's as ``base/plain``) and no ``figures`` table.
+    The report says the figures are not declared, and shows each variant as a group: two
+    rows of Table 1 a shape, two curves in Figure 3, a test between them in Figure 5."""
+    copy = tmp_path / "campaign"
+    copy.mkdir()
+    doc = json.loads((campaign / "campaign.json").read_text())
+    tasks = []
+    for task in doc["tasks"]:
+        variant = {"rq1": "modular", "ablation": "plain"}.get(task["experiment"])
+        if variant is None or task["kind"] != "evolve":
+            continue
+        name = f"base/{variant}-{task['id'].split('/', 1)[1]}"
+        if (campaign / task["path"]).is_dir():
+            shutil.copytree(campaign / task["path"], copy / name)
+        tasks.append({**task, "id": name, "path": name, "experiment": "base"})
+    doc["tasks"] = tasks
+    doc["experiments"] = {"base": {"title": "", "paper": "", "figures": {}}}
+    (copy / "campaign.json").write_text(json.dumps(doc))
+    out = tmp_path / "report"
+    shutil.copytree(report[0] / "cache", out / "cache")  # the same robots: nothing re-run
+    assert main(["report", str(copy), "--out", str(out), "--no-timelapse", "--quiet"]) == 0
+    data = json.loads((out / "report.json").read_text())
+    first = report[1]
+    assert data["figures"]["declared"] is False and data["figures"]["missing"] == {}
+    rows = {(r["experiment"], r["shape"]): r for r in data["table1"]}
+    before = {(r["experiment"], r["shape"]): r for r in first["table1"]}
+    assert set(rows) == {(f"base/{v}", s) for v in ("modular", "plain")
+                         for s in ("biped", "worm")}
+    for shape in ("biped", "worm"):
+        for variant, experiment in (("modular", "rq1"), ("plain", "ablation")):
+            assert rows[f"base/{variant}", shape]["final"] == before[experiment, shape]["final"]
+        assert list(data["figure3"]["curves"][shape]) == ["base/modular", "base/plain"]
+        [test] = data["figure5"]["comparison"][shape]["logged"]["tests"]
+        assert test["p"] == first["figure5"]["comparison"][shape]["logged"]["tests"][0]["p"]
+        assert data["figure5"]["one_sided"][shape]["logged"]["p"] == first["figure5"][
+            "one_sided"][shape]["logged"]["p"]
+    text = (out / "index.md").read_text()
+    assert "Figures: not declared" in text and "Figures no experiment feeds" not in text
+    assert "No pair to test" not in text.split("## Figure 5")[1].split("## Figure 11")[0]
+
+
 def test_an_interim_report_draws_the_runs_under_way_in_the_curves_only(campaign, report,
                                                                        tmp_path, capsys):
     """``--under-way``: a run still writing its log is a curve to its last complete row, named

@@ -3,7 +3,7 @@
 An implementation of Pigozzi & Medvet, "Evolving Modularity in Soft Robots through an Embodied
 and Self-Organizing Neural Controller" (Artificial Life, 2022).
 
-The public API (see the README's "Python API")::
+The public API (docs/guide.md, "Python API"; docs/api.rst)::
 
     import somite
     body = somite.Body.build("worm")

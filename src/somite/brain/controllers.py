@@ -21,7 +21,10 @@ class Zero:
 
 @dataclass(frozen=True)
 class Sine:
-    """a_v(t) = amp * sin(2 pi freq t + phase * x_v); phase < 0 travels towards +x."""
+    """a_v(t) = amp * sin(2 pi freq t + phase * x_v); phase < 0 travels towards +x.
+
+    Actuation i, in force over [i, i + 1] / 60 s, is a_v(i / 60) for i >= 1 and 0 for i = 0:
+    every controller starts at rest (docs/architecture.md, "Step 0")."""
 
     freq: float = 1.0
     amp: float = 1.0
@@ -38,7 +41,13 @@ class Sine:
 
 @dataclass(frozen=True, eq=False)
 class Table:
-    """Actuation rows (L, V) replayed periodically: step k uses row k mod L."""
+    """Actuation rows (L, V) replayed periodically: actuation i, in force over
+    [i, i + 1] / 60 s, is row i mod L, except actuation 0, which is 0 as for every controller
+    (the robot starts at rest: docs/architecture.md, "Step 0"). Row 0 is first used at i = L.
+
+    So the actions that a ``somite/Locomotion-v0`` episode took (the i-th ``step`` call's
+    action is actuation i; the first is not put in force) replay as ``Table(actions)`` through
+    :func:`somite.simulate`, bit for bit (tests/test_gym.py)."""
 
     rows: np.ndarray
 

@@ -19,10 +19,13 @@ import importlib.util
 import logging
 import os
 import re
+import signal
+import threading
 import time
 import uuid
 import warnings
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -115,13 +118,30 @@ def _client(scheduler: str | None, workers: int):
     # any free port, and two campaigns on one machine never meet on Dask's 8787 (the second
     # would retry another port, leaking a socket).
     address = ":8787" if _has_bokeh() else ":0"
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), _deaf_to_ctrl_c():
         # "Port 8787 is already in use" (another cluster's dashboard): this one takes another
         # port, and the progress view shows which.
         warnings.filterwarnings("ignore", message="Port .* is already in use")
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                silence_logs=logging.ERROR, dashboard_address=address)
     return Client(cluster), cluster
+
+
+@contextmanager
+def _deaf_to_ctrl_c():
+    """Ctrl-C reaches every process of the terminal's group: the local workers, stopped by it
+    mid-task, printed four tracebacks before this process's one line. They start with SIGINT
+    blocked (a spawned process inherits the mask and Python keeps it), and this process gets
+    a Ctrl-C pressed meanwhile once they have started; closing the cluster stops them."""
+    main = threading.current_thread() is threading.main_thread()
+    if not main or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
 def _has_bokeh() -> bool:

@@ -70,9 +70,12 @@ def declared(experiments: dict[str, dict[str, str]]) -> dict[str, dict[str, str]
     return out
 
 
-def check(experiments: dict[str, dict[str, str]]) -> None:
+def check(experiments: dict[str, dict[str, str]],
+          variants: dict[str, int] | None = None) -> None:
     """Refuse declarations a figure cannot draw: two groups of one label (they would merge),
-    more experiments than it compares."""
+    more groups than it compares (an evolve experiment of ``variants[name]`` variants is as
+    many groups, ``label/variant``)."""
+    variants = variants or {}
     for name, members in declared(experiments).items():
         labels = list(members.values())
         for label in labels:
@@ -81,20 +84,27 @@ def check(experiments: dict[str, dict[str, str]]) -> None:
                 raise bad(f"experiments.{twice[1]}.figures.{name}", label,
                           f"the label of {twice[0]} there too (the groups would merge)")
         limit = FIGURES[name].groups
-        if limit is not None and len(members) > limit:
-            raise bad(f"experiments.{list(members)[limit]}.figures.{name}", members[
-                list(members)[limit]], f"{name} compares {limit} experiment(s): "
-                f"{', '.join(list(members)[:limit])} already")
+        counted = 0
+        for experiment, label in members.items():
+            counted += variants.get(experiment, 1)
+            if limit is not None and counted > limit:
+                raise bad(f"experiments.{experiment}.figures.{name}", label,
+                          f"{name} compares {limit} group(s) (an experiment's variants are a "
+                          "group each): one too many")
 
 
-def missing(found: dict[str, dict[str, str]]) -> dict[str, str]:
-    """Figure -> why the report cannot draw it from ``found`` (:func:`declared`)."""
+def missing(found: dict[str, dict[str, str]],
+            variants: dict[str, int] | None = None) -> dict[str, str]:
+    """Figure -> why the report cannot draw it from ``found`` (:func:`declared`), an
+    experiment of ``variants[name]`` variants counting as as many groups."""
+    variants = variants or {}
     out = {}
     for name, figure in FIGURES.items():
         members = found.get(name, {})
+        groups = sum(variants.get(e, 1) for e in members)
         if not members:
             out[name] = f"no {figure.kind} experiment declares it"
-        elif figure.groups is not None and len(members) != figure.groups:
-            out[name] = (f"compares {figure.groups} experiments, {len(members)} declared "
+        elif figure.groups is not None and groups != figure.groups:
+            out[name] = (f"compares {figure.groups} groups, {groups} declared "
                          f"({', '.join(members)})")
     return out

@@ -116,7 +116,9 @@ def parse(data: dict, name: str, source: str, base: str | Path | None = None) ->
     experiments: list[Experiment] = []
     for exp_name, table in tables.items():
         experiments.append(_experiment(exp_name, table, {e.name: e for e in experiments}, base))
-    figure_table.check({e.name: e.figures for e in experiments})
+    figure_table.check({e.name: e.figures for e in experiments},
+                       {e.name: len(e.settings.get("variants") or {}) or 1
+                        for e in experiments if e.kind == "evolve"})
     return Campaign(name, source, title, validation, defaults, tuple(experiments))
 
 

@@ -8,10 +8,19 @@ compiled loop computes after it, bit for bit.
   body's order (``observation_names``); the first, after ``reset``, is all zeros, as the
   compiled loop's controllers see it;
 - action: one actuation a voxel in [-1, 1] (+1 contracts), in the shape's order
-  (``action_names``);
+  (``action_names``). The action given after the observation of ``info["step"] == i`` is in
+  force over [i, i + 1] / 60 s, actuation i of :class:`somite.Episode` and :class:`somite.Table`
+  (docs/architecture.md, "Step 0"). The first (i = 0) is checked but not put in force: the robot
+  starts at rest, as under every somite controller, which has read nothing before it. So the
+  actions of an episode replay as ``somite.simulate(somite.Table(actions), body=..., ...)``
+  with its terrain and noise seed, bit for bit;
 - reward: the centre of mass's x-progress over the step in m/s, 0 during the paper's transient
   (the first 5 s): the mean reward over the counted steps is the episode's v_x, the fitness of
-  :func:`somite.simulate` (``info["velocity"]`` holds it, computed as somite does);
+  :func:`somite.simulate` (``info["velocity"]`` holds it, computed as somite does, once the
+  transient is over: before that, or after a non-finite state, ``info`` has no ``velocity``).
+  The episode's return (the sum of its rewards, what Gymnasium's ``RecordEpisodeStatistics``
+  reports) is therefore v_x times the counted steps, (duration - 5 s) * 60: 1500 x the fitness
+  at the default 30 s, not the fitness itself;
 - ``terminated`` when the robot's state went non-finite, ``truncated`` at ``duration``.
 
 ``reset(seed=)`` draws the terrain (for a ``-rnd`` distribution) and the sensor noise seed from
@@ -129,8 +138,13 @@ class LocomotionEnv(gym.Env):
     def _info(self, ok: np.ndarray) -> dict:
         k = self._episode.k
         v = velocities(self._x_start, self._x, ok, k, self.settings.config.transient_steps)
-        return {"step": k, "time": k / CONTROL_HZ, "x": float(self._x[0]),
-                "velocity": float(v[0]), "terrain": self.terrain.name}
+        info = {"step": k, "time": k / CONTROL_HZ, "x": float(self._x[0]),
+                "terrain": self.terrain.name}
+        # Left out until it exists (after the transient, for a finite robot): a NaN would make
+        # two identical steps' infos unequal (NaN != NaN), which Gymnasium's checker refuses.
+        if np.isfinite(v[0]):
+            info["velocity"] = float(v[0])
+        return info
 
 
 __all__ = ["LocomotionEnv", "frame", "spaces_of"]

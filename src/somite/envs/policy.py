@@ -1,7 +1,9 @@
 """An evolved genome's controller as a policy: observations in, actions out, from Python.
 
-The compiled episode runs a graph controller inside its loop: at control step k it reads the
-sensors and computes the actuation in force over step k + 1; the actuation over step 1 is 0.
+The compiled episode runs a graph controller inside its loop: after the physics of
+[k - 1, k] / 60 s it reads the sensors and computes actuation k, in force over [k, k + 1] / 60 s;
+actuation 0 is 0 (docs/architecture.md, "Step 0"). The policy's answer to an episode's first
+observation is that 0, and the environments do not put a first action in force anyway.
 :class:`GenomePolicy` runs the same compiled :func:`~somite.brain.kernels.graph_step` on the
 observations an environment returns (the readings after each step), so fed back as actions its
 output is the actuation the compiled loop puts in force, bit for bit: the robot moves as

@@ -151,7 +151,8 @@ class LocomotionVectorEnv(VectorEnv):
 
     def _infos(self) -> dict:
         """Each sub-environment's control steps taken, time [s], x [m] and v_x so far [m/s]
-        (NaN before the transient ends), as the single environment's ``info``."""
+        (where ``_velocity`` is False, before the transient ends or after a non-finite state,
+        there is none: 0), as the single environment's ``info``."""
         n = self.num_envs
         step = np.zeros(n, dtype=np.int64)
         x = np.zeros(n)
@@ -168,6 +169,10 @@ class LocomotionVectorEnv(VectorEnv):
         infos = {"step": step, "time": step / CONTROL_HZ, "x": x, "velocity": velocity}
         everyone = np.ones(n, dtype=bool)
         infos.update({f"_{key}": everyone for key in list(infos)})
+        # Gymnasium's mask: velocity exists where the single env's info holds one; 0 elsewhere,
+        # not NaN, so that equal steps give equal infos.
+        infos["_velocity"] = np.isfinite(velocity)
+        velocity[~infos["_velocity"]] = 0.0
         return infos
 
     def close_extras(self, **kwargs) -> None:

@@ -87,7 +87,8 @@ def _write_report(campaign, loaded, new: Path, validation: int, timelapse: bool,
         "caveats": None,  # filled last, from the numbers below; kept first in report.json
         "status": {"experiments": campaign.status(loaded.broken), "unreadable": loaded.broken,
                    "under_way": _under_way(loaded)},
-        "figures": {"fed": campaign.figures, "missing": campaign.missing_figures()},
+        "figures": {"fed": campaign.figures, "missing": campaign.missing_figures(),
+                    "declared": campaign.declared},
     }
     stage("drawing the figures")
     inputs = Inputs(campaign, loaded, reruns, folder)

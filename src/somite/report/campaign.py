@@ -38,6 +38,16 @@ class Task:
         """The task's name inside its experiment (``biped-s0``)."""
         return self.id.split("/", 1)[-1]
 
+    @property
+    def variant(self) -> str:
+        """The variant of an evolve experiment's grid that made the task (``""``: none). Its
+        name is ``<variant>-<shape>-s<seed>`` (:mod:`somite.campaigns.kinds.evolve`), and
+        ``campaign.json`` keeps no other record of it."""
+        tail = f"-{self.options.get('shape')}-s{self.options.get('seed')}"
+        if self.kind != "evolve" or not self.name.endswith(tail) or self.name == tail[1:]:
+            return ""
+        return self.name[:-len(tail)]
+
 
 @dataclass(frozen=True)
 class CampaignFolder:
@@ -52,14 +62,26 @@ class CampaignFolder:
     experiments: dict[str, dict]
     tasks: tuple[Task, ...]
     figures: dict[str, dict[str, str]] = field(default_factory=dict)
+    declared: bool = True
+    """Whether the campaign declares its figures; where it declares none (a campaign file
+    without ``figures`` tables), ``figures`` is what the report can show (:func:`shown`)."""
 
     def fed(self, figure: str) -> dict[str, str]:
         """The experiments that feed ``figure``, each with its label, in the campaign's order."""
         return self.figures.get(figure, {})
 
+    def variants(self, experiment: str) -> list[str]:
+        """The variants of ``experiment``'s grid, in the file's order (``[""]``: none)."""
+        found = list(dict.fromkeys(t.variant for t in self.of(experiment)))
+        return found or [""]
+
     def missing_figures(self) -> dict[str, str]:
-        """Figure -> why no experiment feeds it."""
-        return figure_table.missing(self.figures)
+        """Figure -> why no experiment feeds it (none where the campaign declares none: the
+        report says so in one line instead)."""
+        if not self.declared:
+            return {}
+        return figure_table.missing(self.figures, {e: len(self.variants(e))
+                                                   for e in self.experiments})
 
     def task(self, task_id: str) -> Task | None:
         return next((t for t in self.tasks if t.id == task_id), None)
@@ -106,8 +128,13 @@ def read_campaign(root: str | Path) -> CampaignFolder:
     # Experiments that only the tasks name still get a section.
     for task in tasks:
         experiments.setdefault(task.experiment, {})
+    figures = _figures(experiments)
+    if not figures:
+        return CampaignFolder(root, str(data.get("name", root.name)),
+                              str(data.get("source", "")), experiments, tuple(tasks),
+                              shown(tasks), declared=False)
     return CampaignFolder(root, str(data.get("name", root.name)), str(data.get("source", "")),
-                    experiments, tuple(tasks), _figures(experiments))
+                          experiments, tuple(tasks), figures)
 
 
 def _figures(experiments: dict[str, dict]) -> dict[str, dict[str, str]]:
@@ -117,6 +144,19 @@ def _figures(experiments: dict[str, dict]) -> dict[str, dict[str, str]]:
         declared = {name: DECLARED_FIGURES[name] for name in experiments
                     if name in DECLARED_FIGURES}
     return figure_table.declared(declared)
+
+
+def shown(tasks) -> dict[str, dict[str, str]]:
+    """What the report shows of a campaign that declares no figure: every evolve experiment
+    in Figures 3 and 5 (a group per experiment and variant) and every reassembly in Figure 7,
+    each under its own name; nothing beside the paper's numbers (Table 1 has a row per
+    experiment, variant and shape anyway)."""
+    fed: dict[str, dict[str, str]] = {}
+    for task in tasks:
+        for figure in {"evolve": ("figure3", "figure5"), "reassemble": ("figure7",)}.get(
+                task.kind, ()):
+            fed.setdefault(figure, {})[task.experiment] = task.experiment
+    return fed
 
 
 def _task(root: Path, item) -> Task:

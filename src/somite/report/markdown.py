@@ -11,6 +11,7 @@ from ..campaigns.figures import FIGURES as DECLARABLE
 from . import sections
 from .._visible import visible
 from .text import FIGURES, images, median_sd, number, plain, table
+from .transfer import NEAR_ZERO
 
 
 def render_markdown(report: dict) -> str:
@@ -73,6 +74,12 @@ def _missing_figures(report: dict) -> list[str]:
                ((report.get("figures") or {}).get("missing") or {}).items()
                if name not in DECLARABLE or DECLARABLE[name].kind in kinds}
     lines = []
+    if (report.get("figures") or {}).get("declared") is False:
+        lines += ["Figures: not declared (no experiment of the campaign file has a `figures` "
+                  "table; docs/guide.md, Campaigns). Shown: every evolve experiment in Table 1 "
+                  "and Figures 3 and 5, a group per experiment and variant, and every "
+                  "reassembly in Figure 7, under their own names; none beside the paper's "
+                  "numbers.", ""]
     if missing:
         reasons = "; ".join(f"{name}: {why}" for name, why in missing.items())
         lines += [f"Figures no experiment feeds (declared by an experiment's `figures` table "
@@ -145,18 +152,30 @@ def _transfer(report: dict) -> list[str]:
                         "somite_own_vx, overall_ratio; one row per run, engine and sensors, from "
                         "`benchmarks/transfer.py`).*", ""]
     rows = [[s["experiment"], s["shape"], s["engine"], s.get("sensors", "code"), s["runs"],
-             number(s["median_ratio"]), number(s.get("median_overall_ratio")), s["not_finite"]]
+             number(s["median_ratio"]), number(s.get("median_overall_ratio")), s["not_finite"],
+             s.get("near_zero", "n/a")]
             for s in data["summary"]]
     lines += table(["experiment", "shape", "engine", "sensors", "runs",
-                    "median ratio (physics)", "median overall ratio", "ratio not finite"], rows)
+                    "median ratio (physics)", "median overall ratio", "ratio not finite",
+                    "ratio over a v_x near 0"], rows)
     rows = [[r["task"] + ("" if r["known"] else " (not a finished run of this campaign)"),
              r["engine"], r.get("sensors", "code"),
              number(r["generation"], 0) if r["generation"] is not None else "n/a",
              number(r.get("somite_own_vx")), number(r["somite_vx"]), number(r["vsr_vx"]),
-             number(r["ratio"]), number(r.get("overall_ratio"))] for r in data["rows"]]
+             _flagged(r["ratio"], r.get("ratio_near_zero")),
+             _flagged(r.get("overall_ratio"), r.get("overall_near_zero"))] for r in data["rows"]]
+    if any(r.get("ratio_near_zero") or r.get("overall_near_zero") for r in data["rows"]):
+        lines += [f"A ratio marked *near 0* divides by a v_x in somite under {NEAR_ZERO} m/s in "
+                  "magnitude: centimetres of difference make it large, or negative; it says "
+                  "little of the physics.", ""]
     return lines + table(["run", "engine", "sensors", "generation",
                           "v_x in somite, own sensors", "v_x in somite, the sensors read",
                           "v_x in 2D-VSR-Sim", "ratio (physics)", "overall ratio"], rows)
+
+
+def _flagged(ratio, near_zero) -> str:
+    """A ratio's cell, marked where its denominator is near zero."""
+    return number(ratio) + (" (*near 0*)" if near_zero and ratio is not None else "")
 
 
 def _timelapse(report: dict) -> list[str]:

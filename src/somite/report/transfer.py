@@ -18,8 +18,9 @@ sensors the driver read, so ``ratio`` = vsr_vx / somite_vx compares the physics 
 somite_own_vx what the run keeps of its speed in the paper's simulator (with ``own`` the two
 ratios are one). ``generation``, the velocities and the last two columns may be empty, and
 ``sensors`` absent (a file written before they existed: ``code``). The report shows the file's
-rows beside the runs and the median ratios per experiment, shape, engine and sensors; without
-the file it says how to make it.
+rows beside the runs and the median ratios per experiment, shape, engine and sensors, and
+flags a ratio whose denominator is near zero (:data:`NEAR_ZERO`); without the file it says how
+to make it.
 """
 
 from __future__ import annotations
@@ -39,6 +40,10 @@ COLUMNS = ("task", "engine", "sensors", "generation", "somite_vx", "vsr_vx", "ra
            "somite_own_vx", "overall_ratio")
 ENGINES = ("stock", "noccd")
 SENSORS = ("code", "own")
+NEAR_ZERO = 0.5
+"""[m/s] A ratio whose denominator (somite's v_x) is smaller than this in magnitude is flagged:
+over the 25 s that v_x is measured on, a robot that slow has moved a few metres at most, and a
+difference of centimetres between the simulators makes ratios like -108 or 4.6."""
 
 
 def _number(text: str, where: str, name: str) -> float | None:
@@ -79,6 +84,9 @@ def read_transfer(root: Path, tasks: dict[str, tuple[str, str]]) -> dict:
                      "ratio": _number(row["ratio"], where, "ratio"),
                      **{name: _number(row.get(name) or "", where, name)
                         for name in ("somite_own_vx", "overall_ratio")}})
+        last = rows[-1]
+        last["ratio_near_zero"] = _near_zero(last["somite_vx"])
+        last["overall_near_zero"] = _near_zero(last["somite_own_vx"])
     groups: dict[tuple, list[dict]] = {}
     for row in rows:
         if row["known"]:
@@ -91,10 +99,16 @@ def read_transfer(root: Path, tasks: dict[str, tuple[str, str]]) -> dict:
         summary.append({"experiment": experiment, "shape": shape, "engine": engine,
                         "sensors": sensors,
                         "runs": len(ratios), "not_finite": len(ratios) - len(finite),
+                        "near_zero": sum(m["ratio_near_zero"] for m in members),
                         "median_ratio": _median(finite),
                         "median_overall_ratio": _median(_finite(
                             m["overall_ratio"] for m in members))})
     return {"present": True, "file": TRANSFER_FILE, "rows": rows, "summary": summary}
+
+
+def _near_zero(velocity: float | None) -> bool:
+    """Whether a ratio over ``velocity`` is flagged (:data:`NEAR_ZERO`)."""
+    return velocity is not None and abs(velocity) < NEAR_ZERO
 
 
 def _finite(values) -> list[float]:
@@ -105,4 +119,4 @@ def _median(values: list[float]) -> float | None:
     return float(np.median(values)) if values else None
 
 
-__all__ = ["COLUMNS", "ENGINES", "SENSORS", "TRANSFER_FILE", "read_transfer"]
+__all__ = ["COLUMNS", "ENGINES", "NEAR_ZERO", "SENSORS", "TRANSFER_FILE", "read_transfer"]

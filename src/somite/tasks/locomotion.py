@@ -104,7 +104,7 @@ OUTCOME_UNITS = {
 }
 """Every :meth:`Outcome.to_dict` key: its unit ("" for a pure number or a flag) and what it
 is in a few words, as ``somite simulate`` prints it (its ``--json`` carries the units as
-``units``). The README ("Honest numbers") says more on each diagnostic; ``min_height`` is a
+``units``). docs/guide.md ("Honest numbers") says more on each diagnostic; ``min_height`` is a
 vertical distance, see :attr:`Outcome.min_height`."""
 
 

@@ -136,6 +136,13 @@ class Episode:
     replaced at the next ``step(a)``). So ``a`` may be computed from :attr:`readings`, as the
     controllers compute theirs. A robot whose state went non-finite stops
     (``trace.status``).
+
+    Step numbers (the same in every entry point: docs/architecture.md, "Step 0"): the i-th
+    call (i = 0, 1, ...) is the physics over [i, i + 1] / 60 s, under actuation i, the row
+    ``trace.actuation[:, i]``. Actuation 0 is always 0, the robots at rest: no controller has
+    read anything before it, and ``a`` given to the first call is checked but not put in force.
+    So a sequence ``A`` given call by call moves a robot as ``Table(A)`` does in the compiled
+    loop, bit for bit.
     """
 
     def __init__(
@@ -232,6 +239,10 @@ class Episode:
                 raise bad("actuation", float(given.flat[np.argmax(~(np.abs(given) <= 1.0))]),
                           "every value must be in [-1, 1]")
             given = np.ascontiguousarray(given)
+            if self._k == 0:
+                # Step 0's actuation is 0 wherever a sequence runs (the compiled loop's
+                # controllers have read nothing yet): checked, then not put in force.
+                given = self._no_actuation
         self._k += 1
         step_batch(self._k, self._batch, given, self._pool, self._threads)
         if self.done and self._pool is not None:

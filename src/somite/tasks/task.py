@@ -206,6 +206,10 @@ def simulate(
     (``flat``, ``hilly-1-10-3``, ...) or a :class:`~somite.sim.terrain.Terrain`; ``seed`` seeds
     the sensor noise; ``backend`` is ``cpu`` or ``cuda``. For batches, see
     :func:`somite.tasks.locomotion.simulate_batch`.
+
+    Actuation i is in force over [i, i + 1] / 60 s; actuation 0 is 0 whatever the controller
+    (docs/architecture.md, "Step 0"), as in :class:`somite.Episode` and ``somite/Locomotion-v0``,
+    so ``Table(actions)`` replays an environment's actions bit for bit.
     """
     arguments.robot("robot", robot)
     if body is not None:

@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import fcntl
+import os
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +22,28 @@ from somite.sim.system import geometry
 # a test worker (or a subprocess: a CLI run, a Dask worker) that needs a kernel another process
 # is compiling waits for it and loads it from the cache (somite._jit's per-kernel lock), so the
 # tests that need no kernel run at once and no kernel is compiled twice at the same time.
+
+
+@pytest.fixture(scope="session")
+def smoke_campaign(tmp_path_factory) -> Path:
+    """The smoke campaign as ``somite campaign run smoke`` runs it (a LocalCluster of 2 workers
+    of 1 thread), run once for the whole suite: by the first test worker that asks, while the
+    others wait for it (the folder is the session's, beside the workers' own). Read it; copy it
+    before changing it."""
+    base = tmp_path_factory.getbasetemp()
+    shared = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    out, finished = shared / "smoke-campaign" / "smoke", shared / "smoke-campaign.finished"
+    with open(shared / "smoke-campaign.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not finished.exists():
+            shutil.rmtree(out.parent, ignore_errors=True)  # what a failed attempt left
+            result = subprocess.run([sys.executable, "-m", "somite.cli", "campaign", "run",
+                                     "smoke", "--out", str(out), "--workers", "2", "--threads",
+                                     "1", "--quiet"], capture_output=True, text=True,
+                                    timeout=900)
+            assert result.returncode == 0, result.stderr
+            finished.touch()
+    return out
 
 
 @pytest.fixture(scope="session")

@@ -323,13 +323,10 @@ def _logs(directory: Path) -> dict[str, list[dict]]:
 
 
 @pytest.fixture(scope="module")
-def smoke_run(tmp_path_factory) -> Path:
-    """The smoke campaign on a LocalCluster of 2 workers of 1 thread."""
-    out = tmp_path_factory.mktemp("campaign") / "smoke"
-    result = _run("campaign", "run", "smoke", "--out", str(out), "--workers", "2",
-                  "--threads", "1", "--quiet")
-    assert result.returncode == 0, result.stderr
-    return out
+def smoke_run(smoke_campaign) -> Path:
+    """The smoke campaign on a LocalCluster of 2 workers of 1 thread (conftest's, run once for
+    the suite: copy it before changing it)."""
+    return smoke_campaign
 
 
 def test_smoke_writes_every_task_folder(smoke_run, capsys):

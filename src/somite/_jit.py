@@ -30,6 +30,7 @@ with the same numbers). The setting is part of the cache folder's name, so kerne
 under one are never loaded under the other.
 """
 
+import atexit
 import functools
 import hashlib
 import os
@@ -139,6 +140,7 @@ def _hold(folder: Path) -> None:
         if same:
             os.utime(folder / _LOCK)
             _held.append(handle)
+            atexit.register(handle.close)  # released at exit, without Python's warning
             return
         handle.close()
 

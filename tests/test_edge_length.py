@@ -21,9 +21,18 @@ import numpy as np
 import pytest
 
 from somite.brain.compile import compile_genome
-from somite.brain.delays import MAX_EDGE_DELAY, delays, edge_delays, edge_lengths
+from somite.brain.delays import (
+    MAX_EDGE_DELAY,
+    delays,
+    edge_delays,
+    edge_lengths,
+    length_counts,
+    longest_delay,
+)
 from somite.brain.genome import Genome, body_table
 from somite.brain.kinds import ACTUATOR, HIDDEN, RELAY, SENSOR
+from somite.campaigns.builtin import builtin
+from somite.campaigns.expansion import expand
 from somite.cli import main
 from somite.evolution.ea import GraphEA
 from somite.evolution.operators import OperatorConfig, add_edge, initial_genome, mutate
@@ -82,6 +91,17 @@ def test_delay_grows_with_length_one_step_at_least_and_sixty_at_most():
     assert delays(lengths, 1.0).tolist() == [1, 1, 2, 2, 3, 10, MAX_EDGE_DELAY]
     assert delays(lengths, 0.7).tolist() == [1, 1, 1, 2, 2, 7, MAX_EDGE_DELAY]
     assert delays(lengths, 2.5).tolist() == [1, 3, 4, 5, 6, 25, MAX_EDGE_DELAY]
+
+
+def test_edge_lengths_and_their_distribution():
+    genome = delay_batch.grown("biped", 6, 1.0)
+    lengths = edge_lengths(genome)
+    xy = {n.id: (n.x, n.y) for n in genome.nodes}
+    assert lengths.tolist() == [math.dist(xy[e.src], xy[e.dst]) for e in genome.edges]
+    counts = length_counts([genome, genome])
+    assert sum(counts.values()) == 2 * genome.n_edges and list(counts) == sorted(counts)
+    assert counts[0.0] == 2 * int((lengths == 0).sum()) and max(counts) <= math.sqrt(13) + 1e-3
+    assert longest_delay(1.0, genome.body.shape) == 4 and longest_delay(0.0, genome.body.shape) == 1
 
 
 def test_a_delayed_genome_compiles_to_relay_chains_and_saves_its_delay():
@@ -248,3 +268,55 @@ def test_reassembly_keeps_the_donors_delays_and_refuses_to_mix_them():
     expect_error("donors", lambda: reassemble(one.body, halves, mixed))
     assert {n.kind for n in result.genome.nodes} <= {"sensor", "hidden", "actuator"}
     assert HIDDEN in result.genome.index.kind
+
+
+# -- the comparison campaign --------------------------------------------------------------------
+
+
+def test_the_lengths_campaign_compares_the_three_eas_and_their_reassemblies():
+    tasks = {t["id"]: t for t in expand(builtin("lengths"))}
+    assert len(tasks) == 3 * 6 * 3  # 3 EAs x 6 runs, each run's reassembly and re-optimisation
+    for experiment, key in (("distance-bias", "distance_bias"), ("length-delay",
+                                                                 "delay_per_voxel")):
+        assert tasks[f"{experiment}/worm-s2"]["options"][key] == 1.0
+        reopt = tasks[f"{experiment}-homo/biped-s2+s0-reopt"]["options"]
+        assert reopt[key] == 1.0 and reopt["generations"] == 34
+        assert key not in tasks["neutral/worm-s2"]["options"]
+    assert tasks["neutral/biped-s0"]["options"]["generations"] == 200
+    assert tasks["neutral/biped-s0"]["options"]["population"] == 32
+
+
+def test_a_campaign_of_delayed_runs_reassembles_and_reoptimises_them(tmp_path):
+    """The ``lengths`` campaign's delayed experiment and its reassembly at the smoke budget
+    (one shape, two seeds: ``lengths-smoke`` whole takes minutes), from a campaign file."""
+    smoke = builtin("lengths-smoke")
+    runs = next(e for e in smoke.experiments if e.name == "length-delay")
+    defaults = ", ".join(f"{k} = {v}" for k, v in smoke.defaults.items())
+    (tmp_path / "delays.toml").write_text(f"""
+title = "length-dependent delays, reassembled"
+validation = {smoke.validation}
+defaults = {{ {defaults} }}
+[experiments.length-delay]
+kind = "evolve"
+shapes = ["worm"]
+seeds = 2
+options = {{ delay_per_voxel = {runs.settings["options"]["delay_per_voxel"]} }}
+[experiments.length-delay-homo]
+kind = "reassemble"
+donors = "length-delay"
+pairing = "next"
+reoptimize = {{ generations = 1 }}
+""")
+    out = tmp_path / "lengths"
+    done = subprocess.run([sys.executable, "-m", "somite.cli", "campaign", "run",
+                           str(tmp_path / "delays.toml"), "--out", str(out), "--workers", "1",
+                           "--threads", "1", "--quiet"],
+                          capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert json.loads((out / "length-delay" / "worm-s0" / "config.json").read_text())[
+        "delay_per_voxel"] == 1.0
+    delayed = Genome.load(out / "length-delay-homo" / "worm-s1+s0" / "reassembled.json")
+    assert delayed.delay_per_voxel == 1.0
+    reopt = out / "length-delay-homo" / "worm-s1+s0-reopt"
+    assert Genome.load(reopt / "best.json").delay_per_voxel == 1.0
+    assert json.loads((reopt / "config.json").read_text())["delay_per_voxel"] == 1.0

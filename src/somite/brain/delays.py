@@ -101,6 +101,14 @@ def with_relays(kind, ref, src, dst, weight, bias, edge_delay):
     )
 
 
+def length_counts(genomes) -> dict[float, int]:
+    """How many edges of ``genomes`` have each length [voxels, to 3 decimals], shortest first:
+    the distribution the ``lengths`` comparison reports (docs/results.md)."""
+    lengths = np.concatenate([edge_lengths(g) for g in genomes] or [np.zeros(0)])
+    values, counts = np.unique(np.round(lengths, 3), return_counts=True)
+    return {float(v): int(c) for v, c in zip(values, counts)}
+
+
 def longest_delay(per_voxel: float, shape) -> int:
     """The longest delay an edge of a body of ``shape`` can get (its farthest two voxels)."""
     xy = np.array(shape.voxels, dtype=np.float64).reshape(-1, 2)
@@ -108,4 +116,5 @@ def longest_delay(per_voxel: float, shape) -> int:
 
 
 __all__ = ["MAX_DELAY_PER_VOXEL", "MAX_EDGE_DELAY", "check_delay_per_voxel", "delays",
-           "edge_delays", "edge_lengths", "longest_delay", "node_distances", "with_relays"]
+           "edge_delays", "edge_lengths", "length_counts", "longest_delay", "node_distances",
+           "with_relays"]

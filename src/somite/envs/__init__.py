@@ -16,8 +16,23 @@ def register() -> None:
     from gymnasium.envs.registration import registry
 
     if ENV_ID not in registry:
-        gym_register(id=ENV_ID, entry_point="somite.envs.locomotion:LocomotionEnv",
+        gym_register(id=ENV_ID, entry_point="somite.envs:make_env",
                      vector_entry_point="somite.envs.vector:LocomotionVectorEnv")
 
 
-__all__ = ["ENV_ID", "register"]
+def make_env(**kwargs):
+    """The entry point ``gymnasium.make`` calls: a function, not the class, so that Gymnasium
+    hands ``render_mode`` over as given. Given the class, it turns ``"human"`` into
+    ``"rgb_array"`` behind a pygame window (its HumanRendering), which somite neither needs nor
+    installs: the environment refuses ``"human"`` in one line instead. ``"rgb_array_list"``
+    gives Gymnasium's RenderCollection, as it would."""
+    from .locomotion import LocomotionEnv
+
+    if kwargs.get("render_mode") == "rgb_array_list":
+        from gymnasium.wrappers import RenderCollection
+
+        return RenderCollection(LocomotionEnv(**{**kwargs, "render_mode": "rgb_array"}))
+    return LocomotionEnv(**kwargs)
+
+
+__all__ = ["ENV_ID", "make_env", "register"]

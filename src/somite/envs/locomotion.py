@@ -42,7 +42,7 @@ from ..tasks.locomotion import outcomes
 from ..tasks.stepper import Episode
 from ..viz.frame import render_frame
 from ..viz.recording import Recording
-from .settings import rewards, settings, velocities
+from .settings import checked_actions, rewards, settings, velocities
 
 RENDER_SIZE = (480, 270)
 """[px] width and height of a rendered frame."""
@@ -108,10 +108,7 @@ class LocomotionEnv(gym.Env):
             raise bad("step", "before reset", "call reset() first")
         if episode.done or episode.status[0] != STATUS_OK:
             raise bad("step", episode.k + 1, "the episode is over: call reset()")
-        action = np.asarray(action, dtype=np.float64)
-        if action.shape != self.action_space.shape:
-            raise bad("action", f"shape {action.shape}",
-                      f"must have shape {self.action_space.shape}")
+        action = checked_actions("action", action, self.action_space.shape)
         episode.step(action[None])
         ok = episode.status == STATUS_OK
         x = np.array(episode.com[:, 0])

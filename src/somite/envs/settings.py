@@ -10,13 +10,15 @@ gives the numbers of a single environment, bit for bit. Nothing here imports gym
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
-from numbers import Real
+from numbers import Integral, Real
 
 import numpy as np
 
-from ..errors import bad
+from ..errors import SomiteTypeError, bad, bad_type
+from ..limits import MAX_STEPPED, MAX_VALIDATION, at_most
 from ..sim.body import Body, Shape
 from ..sim.config import CONTROL_HZ, SimConfig
 from ..sim.config import preset as sim_preset
@@ -24,6 +26,7 @@ from ..sim.sensor_kinds import component_name
 from ..sim.sensors import noise_table
 from ..sim.terrain import Terrain, parse_terrain
 from ..tasks.distributions import TerrainDistribution, parse_distribution
+from ..tasks.validation import ValidationSet, is_fresh_terrain
 
 GAUSSIAN_BOUND = math.sqrt(-2.0 * math.log(2.0**-62)) + 1e-9
 """Largest |z| that the independent noise stream can draw: Marsaglia's polar method on 32-bit
@@ -87,6 +90,8 @@ class EnvSettings:
         """An episode's terrain (a ``-rnd`` distribution's draw, else its terrain) and sensor
         noise seed, from ``rng``; ``options`` may fix either (``terrain``: a terrain name,
         ``noise_seed``: an int, as ``somite simulate --seed`` takes it)."""
+        if options is not None and not isinstance(options, Mapping):
+            raise bad_type("options", options, "a dict (terrain=, noise_seed=) or None")
         options = dict(options or {})
         unknown = set(options) - {"terrain", "noise_seed"}
         if unknown:
@@ -95,7 +100,10 @@ class EnvSettings:
         seed = int(rng.integers(0, NOISE_SEEDS))
         if "terrain" in options:
             value = options["terrain"]
+            if not isinstance(value, (str, Terrain)):
+                raise bad_type("terrain", value, "a terrain name or a Terrain")
             terrain = value if isinstance(value, Terrain) else parse_terrain(value)
+            check_training_terrain(terrain.name)
         if "noise_seed" in options:
             value = options["noise_seed"]
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not (
@@ -127,12 +135,62 @@ def settings(shape="worm", terrain="flat", duration=30.0, preset="paper",
         raise bad("terrain", terrain, "expected a terrain or distribution name, e.g. "
                   "flat or hilly-1-10-rnd")
     distribution = parse_distribution(terrain)
+    if not distribution.is_random:
+        check_training_terrain(distribution.name)
     if isinstance(duration, bool) or not isinstance(duration, Real):
         raise bad("duration", duration, "expected a number of seconds")
     if not isinstance(preset, str):
         raise bad("preset", preset, "use paper or original-code")
     config = sim_preset(preset, duration=float(duration))
     return EnvSettings(body, distribution, config)
+
+
+def check_training_terrain(name: str) -> None:
+    """Refuse a terrain somite keeps out of training, as ``somite evolve`` does: a validation
+    terrain (hilly-1-10-10000 on, of any count up to :data:`~somite.limits.MAX_VALIDATION`)
+    or a fresh one (hilly-1-10-20000 on), on which runs and the report measure robots that
+    never met them."""
+    if name in _HELD_OUT or is_fresh_terrain(name):
+        raise bad("terrain", name, "a validation or fresh terrain cannot be trained on (somite "
+                  "measures robots there that never met it); use another seed, e.g. "
+                  "hilly-1-10-3, or hilly-1-10-rnd")
+
+
+_HELD_OUT = frozenset(ValidationSet.of(MAX_VALIDATION).names)
+
+
+def check_num_envs(value) -> int:
+    """A vector environment's ``num_envs``: a positive integer (NumPy's too), at most
+    :data:`~somite.limits.MAX_STEPPED`, checked before anything is allocated."""
+    if isinstance(value, bool) or not isinstance(value, Integral):
+        raise bad_type("num_envs", value, "a positive integer")
+    value = int(value)
+    if value < 1:
+        raise bad("num_envs", value, "must be a positive integer")
+    at_most("num_envs", value, MAX_STEPPED)
+    return value
+
+
+def checked_actions(field: str, value, shape: tuple[int, ...]) -> np.ndarray:
+    """``value`` as float64 of ``shape``, checked before it is converted: real numbers only
+    (a string, a bool, a complex or an object would convert to a float silently), every one
+    in [-1, 1] (NaN refused)."""
+    if isinstance(value, (str, bytes)):
+        raise bad_type(field, value, "an array of numbers")
+    try:
+        array = np.asarray(value)
+    except (ValueError, TypeError):  # a ragged list
+        raise bad_type(field, value, "an array of numbers") from None
+    if array.dtype.kind not in "iuf":
+        raise SomiteTypeError(str(bad(field, value, f"expected real numbers (float or int), "
+                                      f"not values of dtype {array.dtype}")))
+    if array.shape != shape:
+        raise bad(field, f"shape {array.shape}", f"must have shape {shape}")
+    array = array.astype(np.float64)
+    inside = np.abs(array) <= 1.0  # False for NaN
+    if not inside.all():
+        raise bad(field, float(array.flat[np.argmin(inside)]), "every value must be in [-1, 1]")
+    return array
 
 
 def rewards(x_before: np.ndarray, x_after: np.ndarray, ok: np.ndarray, k: int,
@@ -163,4 +221,5 @@ def velocities(x_start: np.ndarray, x_now: np.ndarray, ok: np.ndarray, k: int,
     return velocity
 
 
-__all__ = ["EnvSettings", "rewards", "settings", "velocities"]
+__all__ = ["EnvSettings", "check_num_envs", "check_training_terrain", "checked_actions",
+           "rewards", "settings", "velocities"]

@@ -27,12 +27,23 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from ..brain.controllers import Zero
-from ..errors import bad
+from ..errors import bad, bad_type
 from ..sim.config import CONTROL_HZ
 from ..tasks.episode import STATUS_OK
 from ..tasks.stepper import Episode
 from .locomotion import spaces_of
-from .settings import rewards, settings, velocities
+from .settings import check_num_envs, checked_actions, rewards, settings, velocities
+
+
+def _seeds(value) -> list:
+    """A list of seeds (each None or a non-negative integer), else a one-line error."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple, np.ndarray)):
+        raise bad_type("seed", value, "None, an integer or a list of them, one per env")
+    for s in value:
+        if s is not None and (isinstance(s, bool) or not isinstance(s, (int, np.integer))
+                              or s < 0):
+            raise bad("seed", s, "a seed is None or a non-negative integer")
+    return list(value)
 
 
 @dataclass
@@ -57,8 +68,7 @@ class LocomotionVectorEnv(VectorEnv):
 
     def __init__(self, num_envs: int, shape="worm", terrain="flat", duration=30.0,
                  preset="paper", sensors="paper", render_mode=None):
-        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
-            raise bad("num_envs", num_envs, "must be a positive integer")
+        num_envs = check_num_envs(num_envs)  # before the spaces and episodes are allocated
         if render_mode is not None:
             raise bad("render_mode", render_mode, "the vector environment does not render; "
                       "render a single environment")
@@ -82,7 +92,7 @@ class LocomotionVectorEnv(VectorEnv):
         elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
             seeds = [int(seed) + i for i in range(n)]  # as gymnasium's SyncVectorEnv
         else:
-            seeds = list(seed)
+            seeds = _seeds(seed)
             if len(seeds) != n:
                 raise bad("seed", f"{len(seeds)} seeds", f"need one, or one per env ({n})")
         if self._rngs is None or seed is not None:
@@ -95,10 +105,7 @@ class LocomotionVectorEnv(VectorEnv):
     def step(self, actions):
         if not self._batches:
             raise bad("step", "before reset", "call reset() first")
-        actions = np.asarray(actions, dtype=np.float64)
-        if actions.shape != self.action_space.shape:
-            raise bad("actions", f"shape {actions.shape}",
-                      f"must have shape {self.action_space.shape}")
+        actions = checked_actions("actions", actions, self.action_space.shape)
         n = self.num_envs
         reward = np.zeros(n)
         terminated = np.zeros(n, dtype=bool)

@@ -56,6 +56,22 @@ class Terrain:
     xs: np.ndarray
     ys: np.ndarray
 
+    def __post_init__(self) -> None:
+        # Checked, as NaN or unordered vertices give NaN physics without an error; and kept
+        # read-only copies, as a terrain is shared (cached by name, one for a whole batch):
+        # a caller's write would change the ground of episodes it never meant to.
+        if not isinstance(self.name, str):
+            raise bad("terrain.name", self.name, "a terrain's name is a string")
+        xs, ys = (_vertices(f"terrain.{f}", getattr(self, f)) for f in ("xs", "ys"))
+        if len(xs) < 2 or ys.shape != xs.shape:
+            raise bad("terrain.ys", f"{len(ys)} heights", f"need one per x ({len(xs)}), and "
+                      "two vertices at least")
+        if not (np.diff(xs) > 0).all():
+            raise bad("terrain.xs", float(xs[1 + int(np.argmin(np.diff(xs) > 0))]),
+                      "the x of the vertices must be strictly increasing")
+        object.__setattr__(self, "xs", xs)
+        object.__setattr__(self, "ys", ys)
+
     @property
     def start_x(self) -> float:
         return float(self.xs[1])
@@ -63,6 +79,21 @@ class Terrain:
     def height_at(self, x: float | np.ndarray) -> np.ndarray:
         """Ground height under x (linear interpolation between vertices)."""
         return np.interp(x, self.xs, self.ys)
+
+
+def _vertices(field: str, values) -> np.ndarray:
+    """A read-only float64 copy of ``values``: a 1-D array of finite numbers."""
+    try:
+        array = np.array(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise bad(field, values, "expected a 1-D array of numbers") from None
+    if array.ndim != 1:
+        raise bad(field, f"shape {array.shape}", "expected a 1-D array of numbers")
+    if not np.isfinite(array).all():
+        raise bad(field, float(array[np.argmin(np.isfinite(array))]), "every value must be "
+                  "finite")
+    array.flags.writeable = False
+    return array
 
 
 def _walled(inner_x: list[float], inner_y: list[float], name: str) -> Terrain:

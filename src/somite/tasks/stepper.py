@@ -10,6 +10,7 @@ function a thread, over that thread's share of the robots.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 from concurrent.futures import Executor, ThreadPoolExecutor
 
@@ -193,6 +194,9 @@ class Episode:
         self._work = new_work(self.system, self.controllers, self._params, np.zeros)
         self._no_actuation = np.zeros((0, self.n_voxels))
         self._k = 0
+        # Held while a step runs: a second thread stepping at once would interleave the
+        # two steps' work on one state (another trajectory, silently); it is refused.
+        self._stepping = threading.Lock()
         # One pool for the episode's life (starting threads at every step would cost more
         # than a small batch's step); the calling thread is the last of the threads.
         self._threads = threads_for(n)
@@ -226,7 +230,18 @@ class Episode:
         return self._k >= self.n_steps
 
     def step(self, actuation: np.ndarray | None = None) -> Episode:
-        """Advance every running robot one control step; returns the episode itself."""
+        """Advance every running robot one control step; returns the episode itself. One
+        thread at a time: a step while another thread's runs is refused (the episode spreads
+        its robots over threads of its own)."""
+        if not self._stepping.acquire(blocking=False):
+            raise bad("step", self._k + 1, "another thread is stepping this Episode now; step "
+                      "an Episode from one thread at a time")
+        try:
+            return self._step(actuation)
+        finally:
+            self._stepping.release()
+
+    def _step(self, actuation) -> Episode:
         if self.done:
             raise bad("step", self._k + 1, f"the episode has {self.n_steps} control steps")
         given = self._no_actuation

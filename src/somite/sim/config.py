@@ -185,7 +185,10 @@ class SimConfig:
         """Whether a duration no longer than the transient dropped the transient, so that v_x
         is measured over the whole episode [0, duration], start-up included, instead of over
         [transient, duration]. Commands say so (:func:`whole_episode_warning`): a fitness
-        over another interval is not comparable with the paper's."""
+        over another interval is not comparable with the paper's. Building such a config from
+        Python does not warn: short configs are built on purpose everywhere (tests, a campaign's
+        workers, ``dataclasses.replace``), where a warning each time would be noise; read this
+        property, or :attr:`measured_interval`, to know."""
         return self.transient > 0 and int(round(self.transient * CONTROL_HZ)) >= self.n_steps
 
     @property

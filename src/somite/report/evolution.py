@@ -19,7 +19,17 @@ from . import paper
 from .campaign import CampaignFolder, Task
 from .load import Loaded, shape_name
 from .section import Inputs, Section
-from .text import claim, images, median_sd, number, p_noted, pair_rows, table, tests_table
+from .text import (
+    claim,
+    images,
+    median_sd,
+    number,
+    p_noted,
+    pair_rows,
+    plain,
+    table,
+    tests_table,
+)
 
 TITLES = {
     "table1": "Table 1: the best controller at the start and at the end",
@@ -399,7 +409,7 @@ def _one_group_shown_before(report: dict, key: str) -> list[str]:
         return []
     experiment, label = same
     before = TITLES[SHOWN_BEFORE[key]].split(":")[0]
-    return [f"*One group only ({experiment}: {label}), whose runs {before} shows: nothing to "
+    return [f"*One group only ({experiment}: {plain(label)}), whose runs {before} shows: nothing to "
             "compare by omega.*", ""]
 
 

@@ -402,6 +402,16 @@ def _renamed(value):
     return value
 
 
+def _report_again(copy, doc: dict, report, tmp_path):
+    """The report of the campaign folder ``copy`` under the campaign.json ``doc``, with the
+    first report's cache (the same robots: nothing re-run): its folder and report.json."""
+    (copy / "campaign.json").write_text(json.dumps(doc))
+    out = tmp_path / "report"
+    shutil.copytree(report[0] / "cache", out / "cache")
+    assert main(["report", str(copy), "--out", str(out), "--no-timelapse", "--quiet"]) == 0
+    return out, json.loads((out / "report.json").read_text())
+
+
 def test_a_campaign_of_its_own_names_gets_the_figures_it_declares(campaign, report, tmp_path):
     """The finished campaign with its experiments renamed and declaring their figures, as a
     user's TOML campaign writes campaign.json: the figures it declares are drawn from them,
@@ -413,11 +423,7 @@ def test_a_campaign_of_its_own_names_gets_the_figures_it_declares(campaign, repo
     doc = _renamed(json.loads((copy / "campaign.json").read_text()))
     for name, info in doc["experiments"].items():
         info["figures"] = OWN_FIGURES.get(name, {})
-    (copy / "campaign.json").write_text(json.dumps(doc))
-    out = tmp_path / "report"
-    shutil.copytree(report[0] / "cache", out / "cache")  # the same robots: nothing re-run
-    assert main(["report", str(copy), "--out", str(out), "--no-timelapse", "--quiet"]) == 0
-    data = json.loads((out / "report.json").read_text())
+    out, data = _report_again(copy, doc, report, tmp_path)
     first = report[1]
     assert data["figure3"]["curves"]["worm"]["graph"] == first["figure3"]["curves"]["worm"][
         "omega 1"] | {"runs": [_renamed(r) for r in first["figure3"]["curves"]["worm"][
@@ -458,11 +464,7 @@ def test_a_campaign_without_figures_says_not_declared_and_groups_its_variants(ca
         tasks.append({**task, "id": name, "path": name, "experiment": "base"})
     doc["tasks"] = tasks
     doc["experiments"] = {"base": {"title": "", "paper": "", "figures": {}}}
-    (copy / "campaign.json").write_text(json.dumps(doc))
-    out = tmp_path / "report"
-    shutil.copytree(report[0] / "cache", out / "cache")  # the same robots: nothing re-run
-    assert main(["report", str(copy), "--out", str(out), "--no-timelapse", "--quiet"]) == 0
-    data = json.loads((out / "report.json").read_text())
+    out, data = _report_again(copy, doc, report, tmp_path)
     first = report[1]
     assert data["figures"]["declared"] is False and data["figures"]["missing"] == {}
     rows = {(r["experiment"], r["shape"]): r for r in data["table1"]}

@@ -78,3 +78,19 @@ def test_campaign_status_shows_escapes_in_a_name_rather_than_sending_them(tmp_pa
     out = capsys.readouterr().out
     assert "\x1b" not in out and "\x07" not in out and "\u202e" not in out
     assert "\\x1b[2J" in out and "[bold]" in out  # shown, markup and all
+
+
+def test_a_label_that_reads_as_mathtext_is_drawn_as_written():
+    import io
+
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from somite.viz.plots import plot_samples
+
+    figure, axes = plt.subplots()
+    label = r"a$\frac{$b"  # as mathtext, a parse error that ended `somite report`
+    plot_samples(axes, {label: np.array([1.0, 2.0, 3.0]), "b": np.array([2.0, 3.0, 4.0])}, "v")
+    figure.savefig(io.BytesIO(), format="png")
+    plt.close(figure)
+    assert [t.get_text() for t in axes.get_xticklabels()] == [r"a\$\frac{\$b", "b"]

@@ -29,4 +29,10 @@ def for_terminal(text: object) -> str:
     return escape(visible(text))
 
 
-__all__ = ["for_terminal", "visible"]
+def for_figure(text: object) -> str:
+    """:func:`visible`, and ``$`` escaped, for a label matplotlib draws: a pair of ``$`` would
+    be parsed as mathtext, and a label such as ``a$\\frac{$`` end the drawing in an error."""
+    return visible(text).replace("$", r"\$")
+
+
+__all__ = ["for_figure", "for_terminal", "visible"]

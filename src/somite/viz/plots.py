@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .._io import check_output_file
+from .._visible import for_figure
 from ..analysis.stats import (
     MIN_GROUP_SIZE,
     PairTest,
@@ -152,7 +153,8 @@ def plot_curves(axes, groups: dict[str, list[RunLog]], column: str, label: str) 
         colour = COLOURS[k % len(COLOURS)]
         x, median, std = curve(runs, column)
         axes.fill_between(x, median - std, median + std, color=colour, alpha=0.2, lw=0)
-        axes.plot(x, median, color=colour, lw=1.5, label=f"{name} ({_runs(len(runs))})")
+        axes.plot(x, median, color=colour, lw=1.5,
+                  label=f"{for_figure(name)} ({_runs(len(runs))})")
     axes.set_ylabel(label)
     axes.grid(alpha=0.3)
 
@@ -165,7 +167,8 @@ def plot_validation(axes, groups: dict[str, list[RunLog]]) -> None:
         shown = np.isfinite(median)
         if shown.any():
             axes.plot(x[shown], median[shown], color=COLOURS[k % len(COLOURS)], lw=1.0,
-                      ls="--", marker="o", ms=3, label=f"{name}, on validation terrains")
+                      ls="--", marker="o", ms=3,
+                      label=f"{for_figure(name)}, on validation terrains")
 
 
 def plot_boxes(
@@ -187,7 +190,7 @@ def plot_samples(axes, samples: dict[str, np.ndarray], ylabel: str,
     samples = {name: values[np.isfinite(values)] for name, values in samples.items()}
     positions = np.arange(1, len(samples) + 1)
     data = [values if len(values) else [np.nan] for values in samples.values()]
-    parts = axes.boxplot(data, positions=positions, widths=0.55, tick_labels=list(samples),
+    parts = axes.boxplot(data, positions=positions, widths=0.55, tick_labels=[for_figure(n) for n in samples],
                          showfliers=False, patch_artist=True)
     for k, (patch, values) in enumerate(zip(parts["boxes"], samples.values())):
         colour = COLOURS[k % len(COLOURS)]

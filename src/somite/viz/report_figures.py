@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._visible import for_figure
 from .output import atomic_output
 from .plots import COLOURS, plot_curves, plot_samples, plot_validation
 
@@ -93,7 +94,8 @@ def rho_figure(found: dict, title: str):
             x = np.asarray(data["generation"])
             median, sd = np.asarray(data["median"]), np.asarray(data["sd"])
             axes_.fill_between(x, median - sd, median + sd, color=colour, alpha=0.15, lw=0)
-            axes_.plot(x, median, color=colour, lw=1.5, label=f"{label} ({len(data['tasks'])})")
+            axes_.plot(x, median, color=colour, lw=1.5,
+                       label=f"{for_figure(label)} ({len(data['tasks'])})")
         axes_.axhline(1.0, color="black", lw=0.8, ls=":")
         axes_.set_title(shape, fontsize=10)
         axes_.set_xlabel("generation of the re-optimisation")

@@ -76,7 +76,7 @@ def test_bad_steps_and_options_give_one_line():
     expect_error("step", lambda: env.step(np.zeros(12)))
     env.reset(seed=0)
     expect_error("action", lambda: env.step(np.zeros(11)))
-    expect_error("actuation", lambda: env.step(np.full(12, 1.5)))
+    expect_error("action", lambda: env.step(np.full(12, 1.5)))  # the env's own field
     expect_error("options", lambda: env.reset(options={"noise": 3}))
     expect_error("noise_seed", lambda: env.reset(options={"noise_seed": -1}))
     env.step(np.zeros(12))

@@ -190,7 +190,8 @@ def plot_samples(axes, samples: dict[str, np.ndarray], ylabel: str,
     samples = {name: values[np.isfinite(values)] for name, values in samples.items()}
     positions = np.arange(1, len(samples) + 1)
     data = [values if len(values) else [np.nan] for values in samples.values()]
-    parts = axes.boxplot(data, positions=positions, widths=0.55, tick_labels=[for_figure(n) for n in samples],
+    parts = axes.boxplot(data, positions=positions, widths=0.55,
+                         tick_labels=[for_figure(n) for n in samples],
                          showfliers=False, patch_artist=True)
     for k, (patch, values) in enumerate(zip(parts["boxes"], samples.values())):
         colour = COLOURS[k % len(COLOURS)]

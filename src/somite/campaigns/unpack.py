@@ -24,6 +24,7 @@ same ``--out`` removes (its process being gone).
 
 from __future__ import annotations
 
+import glob
 import hashlib
 import json
 import lzma
@@ -197,7 +198,8 @@ def _check_index(index: dict, max_bytes: int) -> tuple[list[dict], _Tables]:
         raise _Damaged(f"{min(both)} is both a file and a folder")
     if CAMPAIGN not in paths:
         raise _Damaged("no campaign.json")
-    total = sum(e["size"] for e in entries)
+    # Stored bytes too: each is decompressed and read, even where its file is small.
+    total = max(sum(e["size"] for e in entries), sum(e["length"] for e in entries))
     if total > max_bytes:
         raise _Exceeds(total)
     return entries, _Tables(list(bodies), list(kinds))
@@ -270,7 +272,7 @@ def _alive(pid: int) -> bool:
 def remove_stale_staging(target: Path) -> None:
     """The staging folders of earlier unpacks into ``target`` whose process is gone (killed):
     a live unpack's is left alone."""
-    for path in target.parent.glob(f".{target.name}.unpack.*"):
+    for path in target.parent.glob(f".{glob.escape(target.name)}.unpack.*"):
         found = _STAGING.fullmatch(path.name)
         if found and found["name"] == target.name and path.is_dir() and not path.is_symlink() \
                 and not _alive(int(found["pid"])):

@@ -320,3 +320,20 @@ reoptimize = {{ generations = 1 }}
     reopt = out / "length-delay-homo" / "worm-s1+s0-reopt"
     assert Genome.load(reopt / "best.json").delay_per_voxel == 1.0
     assert json.loads((reopt / "config.json").read_text())["delay_per_voxel"] == 1.0
+
+
+def test_the_replay_pages_node_activity_follows_the_delays():
+    from somite.viz.video import record_episode
+    from somite.viz.replay import node_activity
+
+    genome = delay_batch.grown("worm", 7, 1.0)
+    recording = record_episode(genome.body, genome, "hilly-1-10-0",
+                               delay_batch.batch([genome, genome])[2].with_options(duration=0.3),
+                               seed=1)
+    h = node_activity(genome, recording)
+    index = genome.index
+    actuators = np.flatnonzero(index.kind == ACTUATOR)
+    np.testing.assert_allclose(h[1:, actuators], recording.actuation[1:, index.voxel[actuators]],
+                               atol=1e-9)
+    undelayed = node_activity(replace(genome, delay_per_voxel=0.0), recording)
+    assert np.abs(undelayed[1:, actuators] - h[1:, actuators]).max() > 1e-3

@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..brain.delays import edge_delays
 from ..brain.genome import Genome, body_table
 from ..brain.kinds import ACTUATOR, HIDDEN, SENSOR
 from ..errors import bad
@@ -74,7 +75,8 @@ def node_activity(genome: Genome, recording: Recording) -> np.ndarray:
     """(T, N) every node's value at each recorded step, replayed from the recorded readings.
 
     The controller's synchronous step (:mod:`somite.brain.kernels`): h_0 = 0; at step k >= 1 a
-    sensor reads tanh(reading_k), every other node act(sum of h_{k-1}(src) * w + b); the
+    sensor reads tanh(reading_k), every other node act(sum of h_{k-D}(src) * w + b), D the
+    edge's delay (1, or its length's with ``delay_per_voxel``, :mod:`somite.brain.delays`); the
     actuators' values are the recorded actuation (tests check it).
     """
     index = genome.index
@@ -90,10 +92,12 @@ def node_activity(genome: Genome, recording: Recording) -> np.ndarray:
     reading = (np.asarray(table.first_reading)[np.asarray(index.voxel)] + np.asarray(index.slot)
                )[sensor]
     sigmoid = recording.config.hidden_activation == "sigmoid"
+    # Each edge reads its source as it was its delay ago (1 step but with delay_per_voxel).
+    lag = edge_delays(genome)
     h = np.zeros((n_steps, n_nodes))
     for k in range(1, n_steps):
         total = np.zeros(n_nodes)
-        np.add.at(total, dst, h[k - 1, src] * weight + bias)
+        np.add.at(total, dst, h[np.maximum(k - lag, 0), src] * weight + bias)
         value = np.tanh(total)
         if sigmoid:
             value[hidden] = 1.0 / (1.0 + np.exp(-total[hidden]))

@@ -12,7 +12,9 @@ ablation runs are ``paper-rq1``'s, so a ``paper-rq1`` folder grows into ``paper:
 (:data:`GROWS_FROM`). ``paper``'s experiments are ordered so that its partial results mean
 something early: the stages on RQ1's runs (re-optimised reassembly, homogeneous then
 heterogeneous; module discovery) come before the omega runs, which a campaign starts seed by
-seed. Every experiment declares the
+seed. ``lengths`` is beyond the paper (issue 72): the neutral EA beside the
+distance-biased edge addition and the length-dependent delays, ``lengths-smoke`` the same
+at the smoke budget. Every experiment declares the
 figures it feeds (:data:`DECLARED_FIGURES`, :mod:`.figures`). :data:`BUILTINS` lists them all.
 """
 
@@ -126,9 +128,54 @@ def paper_rq1(seeds: int = RQ1_SEEDS) -> dict:
                       "experiments": _rq1(grid)})
 
 
+# -- beyond the paper (issue 72): edges that cost their length -----------------------------------
+
+EDGE_LENGTH_BUDGETS: dict[str, dict] = {
+    # quick's population and validation; 200 generations, re-optimisation at quick's 17%:
+    # 5.0e8 robot-control-steps, ~84 min by `somite campaign list`'s rate; paper-rq1 ran 2.5
+    # times its estimate, so some 3.5 h on 2 free cores.
+    "lengths": {"seeds": 3, "defaults": {"generations": 200, "population": 32,
+                                         "validate_every": 25},
+                "reoptimize": 34, "validation": VALIDATION_COUNT},
+    "lengths-smoke": {**BUDGETS["smoke"], "seeds": 3},
+}
+EDGE_LENGTH_VARIANTS: dict[str, tuple[dict, str]] = {
+    "neutral": ({}, "The paper's EA (omega 1): every edge one step, any pair as likely"),
+    "distance-bias": ({"distance_bias": 1.0},
+                      "Edge addition biased against long edges: a pair d voxels apart weighs "
+                      "exp(-d)"),
+    "length-delay": ({"delay_per_voxel": 1.0},
+                     "Delays that grow with length: max(1, ceil(d)) steps for an edge of d "
+                     "voxels"),
+}
+"""The three EAs the edge-length comparison runs: options, title."""
+
+
+def edge_length(budget: dict) -> dict:
+    """The comparison of issue 72 at ``budget``: the neutral EA, the distance-biased edge
+    addition and the length-dependent delays, both shapes, and each one's homogeneous
+    reassembly (run i's back or legs with run i+1's front or torso), re-optimised; Figure 3
+    (v_x and |G|) and Figure 7 (rho) put the three side by side."""
+    grid = {"kind": "evolve", "shapes": SHAPES, "seeds": budget["seeds"]}
+    runs, reassemblies = {}, {}
+    for name, (options, title) in EDGE_LENGTH_VARIANTS.items():
+        runs[name] = {**grid, **({"options": dict(options)} if options else {}),
+                      "title": title, "paper": "Section 4 (limitations): beyond the paper",
+                      "figures": {"figure3": name}}
+        reassemblies[f"{name}-homo"] = {
+            "kind": "reassemble", "donors": name, "pairing": "next",
+            "reoptimize": {"generations": budget["reoptimize"]},
+            "title": f"Homogeneous reassembly of the {name} runs",
+            "paper": "Section 5.2: Figure 7, beyond the paper", "figures": {"figure7": name}}
+    return {"title": "Edges that cost their length, delays that grow with it (issue 72)",
+            "validation": budget["validation"], "defaults": dict(budget["defaults"]),
+            "experiments": {**runs, **reassemblies}}
+
+
 BUILTINS: dict[str, Callable[[], dict]] = {
     **{name: partial(structure, budget) for name, budget in BUDGETS.items()},
     "paper-rq1": paper_rq1,
+    **{name: partial(edge_length, budget) for name, budget in EDGE_LENGTH_BUDGETS.items()},
 }
 """Every built-in campaign: name -> its campaign file's content."""
 

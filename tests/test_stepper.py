@@ -28,9 +28,9 @@ from somite.tasks.episode import (
     work_shape,
     work_sizes,
 )
-from somite.tasks.lanes import GROUP_SIZE, Batch, groups, run_groups
+from somite.tasks.lanes import GROUP_SIZE, NOT_TIMED, Batch, groups, new_groups, run_groups
 from somite.tasks.locomotion import compile_controllers, simulate_batch
-from somite.tasks.stepper import Episode, start_batch, step_batch
+from somite.tasks.stepper import Episode, start_batch, step_batch, step_in_groups
 
 from .conftest import evolved, expect_error
 
@@ -203,3 +203,55 @@ def test_robots_of_other_bodies_with_the_same_counts_are_not_grouped():
     alone, [(first, count, grouped)] = _alone_and_grouped(bodies, (GROUP_SIZE,))
     assert first.tolist() == [0, 2, 3, 4] and count.tolist() == [2, 1, 1, 2]
     _assert_same(grouped, alone)
+
+
+def test_the_stepper_advances_groups_as_the_compiled_loop_does():
+    """somite.Episode advances robots of one body together, as vector lanes (the compiled
+    loop's groups, kept between steps): stepped to the end it leaves simulate_batch's trace
+    bit for bit, with groups of several robots of each shape."""
+    bodies = [Body.build("worm")] * 9 + [Body.build("biped")] * 3
+    rng = np.random.default_rng(3)
+    graphs = [random_graph(body, 150, rng) for body in bodies]
+    terrains = [hilly(1.0, 10.0, 60 + b) for b in range(len(bodies))]
+    config = preset("paper", duration=0.5)
+    seeds = list(range(70, 70 + len(bodies)))
+    _, reference = simulate_batch(bodies, terrains, graphs, config, seeds, record=True)
+    episode = Episode(graphs, terrains, config, seeds, record=True, bodies=bodies)
+    assert max(group.count for group in episode._groups) > 1
+    _assert_same(episode.run(), reference)
+
+
+def test_groups_stepped_with_given_actuation_give_each_robots_own_numbers():
+    """The stepper's groups under actuation given at each step, a robot of a group stopping
+    (a NaN start) and groups of three sizes: the per-robot path's trace (step_batch), bit
+    for bit."""
+    bodies = [Body.build("worm")] * 5 + [Body.build("biped")] * 2
+    rng = np.random.default_rng(5)
+    graphs = [random_graph(body, 120, rng) for body in bodies]
+    terrains = [hilly(1.0, 10.0, 30 + b) for b in range(len(bodies))]
+    config = preset("paper", duration=0.5)
+    system = compile_system(bodies, terrains, config.start_gap)
+    system.initial_pos[2, 0, 0] = np.nan
+    ctrl = compile_controllers(graphs, [b.shape.n_voxels for b in bodies])
+    params, noise = pack_params(config), noise_table(config)
+    seeds = np.arange(40, 40 + len(bodies), dtype=np.uint64)
+    width = system.voxel_corners.shape[1]
+    given = np.random.default_rng(9).uniform(-1.0, 1.0, (config.n_steps, len(bodies), width))
+    traces = []
+    for way in ("alone", 1, 3, GROUP_SIZE):
+        trace = new_trace(len(bodies), config.n_steps, system, True)
+        batch = Batch(system, ctrl, params, noise, seeds, config.n_steps, trace,
+                      new_work(system, ctrl, params, np.zeros), lidar_rays(params))
+        start_batch(batch)
+        kept = None if way == "alone" else new_groups(
+            batch, *groups(system, way, threads=1), NOT_TIMED)
+        for k in range(1, config.n_steps + 1):
+            if kept is None:
+                step_batch(k, batch, given[k - 1])
+            else:
+                step_in_groups(k, batch, kept, given[k - 1], threads=1)
+        traces.append(trace)
+    assert traces[0].status.tolist() == [0, 0, 1, 0, 0, 0, 0]
+    assert np.array_equal(traces[0].actuation[0, :-1], given[:, 0])  # in force, recorded
+    for trace in traces[1:]:
+        _assert_same(trace, traces[0])

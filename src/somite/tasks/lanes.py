@@ -19,6 +19,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numba.typed import List
 
 from .._cycles import cycles, tick
 from .._jit import njit, uncounted
@@ -31,6 +32,7 @@ from ..sim.sensors import lidar_rays
 from ..sim.step import implements
 from ..sim.step import step as physics_step
 from .episode import (
+    STATUS_OK,
     Batch,
     after_physics,
     before_physics,
@@ -44,7 +46,7 @@ from .episode import (
 )
 
 __all__ = ["GROUP_SIZE", "NOT_TIMED", "PARTS", "Batch", "Group", "InLanes", "groups",
-           "run_batch", "run_groups"]
+           "new_groups", "run_batch", "run_groups", "step_group", "step_groups"]
 
 PARTS = ("gravity, damping, contacts' set-up, into the lanes", "joints: set-up",
          "joints: velocity passes", "contacts: velocity passes", "move and rotations",
@@ -55,6 +57,8 @@ PARTS = ("gravity, damping, contacts' set-up, into the lanes", "joints: set-up",
  P_SENSE) = range(len(PARTS))
 NOT_TIMED = np.zeros(0, dtype=np.uint64)
 """``spent`` of a group run that is not being timed."""
+NO_ACTUATION = np.zeros((0, 0))
+"""``given`` of a control step whose actuation is the controllers' own."""
 
 
 @njit(inline="always")
@@ -208,33 +212,86 @@ def advance_group(batch, group, n):
         physics_step(lanes, params)
 
 
+@njit(inline="always")
+def _control_step(k, batch, group, n, given):
+    """Control step ``k`` of the robots ``group.running[:n]``; ``given`` (B, V) replaces their
+    actuation in force over the step (0 rows: the controllers' own; the stepper's
+    ``Episode.step(a)``). Moves the robots still running to the front of ``group.running``
+    and returns how many there are."""
+    params, running, spent, trace = batch.params, group.running, group.spent, batch.trace
+    timed = spent.shape[0] > 0
+    clock = cycles() if timed else 0
+    for i in range(n):
+        b = running[i]
+        state = _lane(batch, b)
+        actuation = state.work.brain.actuation
+        if given.shape[0] > 0:
+            # What was in force over step k is what the trace shows at step k - 1, which
+            # decided it.
+            for v in range(actuation.shape[0]):
+                actuation[v] = given[b, v]
+                if trace.pos.shape[0] > 0:
+                    trace.actuation[b, k - 1, v] = given[b, v]
+        rest = state.scratch.rest if group.count == 1 else group.lanes.rest[:, b - group.first]
+        before_physics(state.robot, actuation, params, rest)
+    clock = tick(spent, P_REST, clock, timed)
+    advance_group(batch, group, n)
+    clock = cycles() if timed else 0
+    going = 0
+    for i in range(n):
+        b = running[i]
+        if after_physics(k, b, batch, _lane(batch, b)):
+            running[going] = b
+            going += 1
+    tick(spent, P_SENSE, clock, timed)
+    return going
+
+
 @uncounted
 def control_steps(batch, group):
     """Control steps 1 .. ``batch.n_steps`` of the group's robots. Compiled without reference
     counting (:func:`somite._jit.uncounted`)."""
-    params, running, spent = batch.params, group.running, group.spent
     n = group.count
-    timed = spent.shape[0] > 0
     for k in range(1, batch.n_steps + 1):
-        clock = cycles() if timed else 0
-        for i in range(n):
-            state = _lane(batch, running[i])
-            rest = (state.scratch.rest if group.count == 1
-                    else group.lanes.rest[:, running[i] - group.first])
-            before_physics(state.robot, state.work.brain.actuation, params, rest)
-        clock = tick(spent, P_REST, clock, timed)
-        advance_group(batch, group, n)
-        clock = cycles() if timed else 0
-        going = 0
-        for i in range(n):
-            b = running[i]
-            if after_physics(k, b, batch, _lane(batch, b)):
-                running[going] = b
-                going += 1
-        tick(spent, P_SENSE, clock, timed)
-        n = going
+        n = _control_step(k, batch, group, n, NO_ACTUATION)
         if n == 0:
             break
+
+
+@uncounted
+def step_group(k, batch, group, given):
+    """Control step ``k`` of the group's robots still running, as :func:`control_steps` takes
+    it (the stepper's, :class:`somite.tasks.stepper.Episode`), and their outcomes so far into
+    the trace (``finish``); ``given`` as for :func:`_control_step`."""
+    n = 0
+    for b in range(group.first, group.first + group.count):
+        # control_steps keeps its running robots in this order.
+        if batch.trace.status[b] == STATUS_OK:
+            group.running[n] = b
+            n += 1
+    if n > 0:
+        _control_step(k, batch, group, n, given)
+    for b in range(group.first, group.first + group.count):
+        finish(b, batch.trace, _lane(batch, b))
+
+
+@njit
+def new_groups(batch, first, count, spent):
+    """The :class:`~somite.sim.group.Group` of every group (``first``, ``count``) of a batch
+    whose robots have started, as a typed list: what the stepper keeps between control steps
+    (the lanes' warm-start impulses live in the groups) and hands to :func:`step_groups` in one
+    argument."""
+    out = List()
+    for g in range(first.shape[0]):
+        out.append(_group(batch, first[g], count[g], spent))
+    return out
+
+
+@njit
+def step_groups(k, batch, given, groups, j, stride):
+    """:func:`step_group` of groups j, j + stride, j + 2 stride, ... of ``groups``."""
+    for g in range(j, len(groups), stride):
+        step_group(k, batch, groups[g], given)
 
 
 @njit

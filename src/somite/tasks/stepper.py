@@ -1,11 +1,14 @@
 """An episode stepped from Python, one control step at a time (brax's ``reset``/``step``).
 
-:class:`Episode` runs the batch's robots through the same :func:`~somite.tasks.episode.start`,
-:func:`~somite.tasks.episode.control_step` and :func:`~somite.tasks.episode.finish` as the
-compiled loop, over state it keeps between calls (a :class:`~somite.tasks.episode.Work` of
-batch arrays), so an episode stepped to its end leaves the trace that
+:class:`Episode` runs the batch's robots as the compiled loop does: started by
+:func:`~somite.tasks.episode.start`, then each control step over the batch's groups of robots
+of one body (:func:`~somite.tasks.lanes.step_group`: the loop's own step, their joints as
+vector lanes), over state it keeps between calls (a :class:`~somite.tasks.episode.Work` of
+batch arrays and the groups' lanes), so an episode stepped to its end leaves the trace that
 :func:`~somite.tasks.lanes.run_batch` leaves, bit for bit. Each call runs one compiled
-function a thread, over that thread's share of the robots.
+function a thread, over that thread's share of the groups. :func:`step_batch` steps each robot
+alone through :func:`~somite.tasks.episode.control_step` (the one-robot physics; the tests'
+reference).
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ from .episode import (
     start,
     work_row,
 )
+from .lanes import NOT_TIMED, groups, new_groups, step_groups
 from .locomotion import compile_batch
 
 
@@ -74,7 +78,7 @@ def _step_robots(k, batch, given, first, stride):
             finish(b, trace, state)
 
 
-KERNELS = (_start_robots, _step_robots)
+KERNELS = (_start_robots, new_groups, step_groups)
 """The compiled functions that :class:`Episode` runs (to ask whether Numba's cache holds them:
 :func:`somite._jit.on_disk`)."""
 
@@ -99,6 +103,16 @@ def step_batch(k, batch: Batch, given, pool: Executor | None = None,
     the actuation in force over the step (0 rows: the controllers' own). Threads as in
     :func:`start_batch`."""
     _by_threads(_step_robots, (k, batch, given), batch.system.n_points.shape[0], pool, threads)
+
+
+def step_in_groups(k, batch: Batch, groups, given, pool: Executor | None = None,
+                   threads: int | None = None) -> None:
+    """:func:`step_batch` over the batch's groups of robots (``groups``:
+    :func:`~somite.tasks.lanes.new_groups` of the started batch), as the compiled loop advances
+    them: the same numbers, a group's robots as vector lanes. Thread j takes groups j, j + T,
+    ... of the T threads."""
+    threads = threads or threads_for(batch.system.n_points.shape[0])
+    spread(lambda j: step_groups(k, batch, given, groups, j, threads), threads, pool)
 
 
 def _real_array(field: str, value) -> np.ndarray:
@@ -205,6 +219,10 @@ class Episode:
         self._batch = Batch(self.system, self.controllers, self._params, self._noise,
                             self._seeds, config.n_steps, self._trace, self._work, self._rays)
         start_batch(self._batch, self._pool, self._threads)
+        # Robots of one body advance together, as in the compiled loop (tasks/lanes.py); the
+        # groups keep their lanes' state between steps.
+        self._groups = new_groups(self._batch, *groups(self.system, threads=self._threads),
+                                  NOT_TIMED)
 
     @property
     def n_robots(self) -> int:
@@ -259,7 +277,7 @@ class Episode:
                 # controllers have read nothing yet): checked, then not put in force.
                 given = self._no_actuation
         self._k += 1
-        step_batch(self._k, self._batch, given, self._pool, self._threads)
+        step_in_groups(self._k, self._batch, self._groups, given, self._pool, self._threads)
         if self.done and self._pool is not None:
             self._pool.shutdown()
             self._pool = None
@@ -308,4 +326,4 @@ class Episode:
         return _read_only(self._trace.diagnostics)
 
 
-__all__ = ["Episode", "start_batch", "step_batch"]
+__all__ = ["Episode", "start_batch", "step_batch", "step_in_groups"]

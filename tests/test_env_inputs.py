@@ -34,6 +34,9 @@ def test_the_env_refuses_held_out_terrains_as_evolve_does(terrain):
         env.reset(options=[("terrain", "flat")])
     with pytest.raises(SomiteTypeError, match="^terrain="):
         env.reset(options={"terrain": 3})
+    for seed in (-1, "1", 1.5):
+        with pytest.raises(SomiteError, match="^seed="):
+            env.reset(seed=seed)
 
 
 @pytest.fixture(scope="module")
@@ -73,8 +76,9 @@ def test_num_envs_is_bounded_before_allocating_and_takes_numpy_integers():
             LocomotionVectorEnv(wrong, duration=0.1)
     envs = LocomotionVectorEnv(np.int64(2), duration=0.1)
     assert envs.num_envs == 2 and type(envs.num_envs) is int
-    with pytest.raises(SomiteError, match="^seed="):
-        envs.reset(seed=[0, -1])
+    for seed in ([0, -1], -1, "ab"):
+        with pytest.raises(SomiteError, match="^seed="):
+            envs.reset(seed=seed)
     envs.reset(seed=0)
     with pytest.raises(SomiteError, match="^actions="):
         envs.step([["1"] * V] * 2)

@@ -42,7 +42,7 @@ from ..tasks.locomotion import outcomes
 from ..tasks.stepper import Episode
 from ..viz.frame import render_frame
 from ..viz.recording import Recording
-from .settings import checked_actions, rewards, settings, velocities
+from .settings import check_seed, checked_actions, rewards, settings, velocities
 
 RENDER_SIZE = (480, 270)
 """[px] width and height of a rendered frame."""
@@ -93,7 +93,7 @@ class LocomotionEnv(gym.Env):
         self._x_start = self._x = np.zeros(1)
 
     def reset(self, *, seed=None, options=None):
-        super().reset(seed=seed)
+        super().reset(seed=check_seed(seed))
         terrain, noise_seed = self.settings.draw(self.np_random, options)
         self.terrain = terrain
         self._episode = Episode([Zero()], terrain, self.settings.config, seeds=noise_seed,

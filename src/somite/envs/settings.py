@@ -159,6 +159,18 @@ def check_training_terrain(name: str) -> None:
 _HELD_OUT = frozenset(ValidationSet.of(MAX_VALIDATION).names)
 
 
+def check_seed(value, field: str = "seed") -> int | None:
+    """A reset's seed: None or a non-negative integer (NumPy's too), as an int; checked here
+    so that a bad one is a somite error naming it, as every other argument is."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, Integral):
+        raise bad_type(field, value, "None or a non-negative integer")
+    if value < 0:
+        raise bad(field, value, "must be None or a non-negative integer")
+    return int(value)
+
+
 def check_num_envs(value) -> int:
     """A vector environment's ``num_envs``: a positive integer (NumPy's too), at most
     :data:`~somite.limits.MAX_STEPPED`, checked before anything is allocated."""
@@ -221,5 +233,5 @@ def velocities(x_start: np.ndarray, x_now: np.ndarray, ok: np.ndarray, k: int,
     return velocity
 
 
-__all__ = ["EnvSettings", "check_num_envs", "check_training_terrain", "checked_actions",
+__all__ = ["EnvSettings", "check_num_envs", "check_seed", "check_training_terrain", "checked_actions",
            "rewards", "settings", "velocities"]

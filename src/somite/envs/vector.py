@@ -32,18 +32,21 @@ from ..sim.config import CONTROL_HZ
 from ..tasks.episode import STATUS_OK
 from ..tasks.stepper import Episode
 from .locomotion import spaces_of
-from .settings import check_num_envs, checked_actions, rewards, settings, velocities
+from .settings import (
+    check_num_envs,
+    check_seed,
+    checked_actions,
+    rewards,
+    settings,
+    velocities,
+)
 
 
 def _seeds(value) -> list:
     """A list of seeds (each None or a non-negative integer), else a one-line error."""
     if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple, np.ndarray)):
         raise bad_type("seed", value, "None, an integer or a list of them, one per env")
-    for s in value:
-        if s is not None and (isinstance(s, bool) or not isinstance(s, (int, np.integer))
-                              or s < 0):
-            raise bad("seed", s, "a seed is None or a non-negative integer")
-    return list(value)
+    return [check_seed(s) for s in value]
 
 
 @dataclass
@@ -90,7 +93,7 @@ class LocomotionVectorEnv(VectorEnv):
         if seed is None:
             seeds = [None] * n
         elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            seeds = [int(seed) + i for i in range(n)]  # as gymnasium's SyncVectorEnv
+            seeds = [check_seed(seed) + i for i in range(n)]  # as gymnasium's SyncVectorEnv
         else:
             seeds = _seeds(seed)
             if len(seeds) != n:

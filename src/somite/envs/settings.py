@@ -233,5 +233,5 @@ def velocities(x_start: np.ndarray, x_now: np.ndarray, ok: np.ndarray, k: int,
     return velocity
 
 
-__all__ = ["EnvSettings", "check_num_envs", "check_seed", "check_training_terrain", "checked_actions",
-           "rewards", "settings", "velocities"]
+__all__ = ["EnvSettings", "check_num_envs", "check_seed", "check_training_terrain",
+           "checked_actions", "rewards", "settings", "velocities"]

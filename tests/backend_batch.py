@@ -13,10 +13,14 @@ them again there, on a fresh clone's cold cache, took 160 of its 200 s).
 from __future__ import annotations
 
 import json
+import os
+import subprocess
 import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
+import pytest
 
 from somite.bench import random_graph
 from somite.sim.body import Body
@@ -47,20 +51,45 @@ def run_cases(name: str) -> dict[str, Trace]:
     return {p: run(system, ctrl, preset(p, duration=d), seeds, backend=name) for p, d in CASES}
 
 
-def main(name: str, out: str) -> None:
+def save(name: str, out: str, arrays_of) -> None:
+    """Save ``arrays_of(name)`` (name -> array) to ``out`` if backend ``name`` can run here;
+    stdout's last line says which, as JSON, for :func:`run_elsewhere`."""
     reason = BACKENDS[name].unavailable()
     if reason:
         print(json.dumps({"unavailable": reason}))
         return
     warnings.simplefilter("ignore", RuntimeWarning)  # uint64 hashing wraps, as it does compiled
+    np.savez(out, **arrays_of(name))
+    print(json.dumps({"saved": out}))
+
+
+def run_elsewhere(module: str, name: str, out: Path) -> Path:
+    """Run ``python -m module name out`` (a module whose main calls :func:`save`) in a process
+    of its own under numba-cuda's simulator; ``out``, or the test skipped if ``name`` cannot
+    run there."""
+    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
+    done = subprocess.run([sys.executable, "-m", module, name, str(out)], env=env,
+                          cwd=Path(__file__).parents[1], capture_output=True, text=True,
+                          timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    said = json.loads(done.stdout.splitlines()[-1])
+    if "unavailable" in said:
+        pytest.skip(f"backend {name!r} cannot run here: {said['unavailable']}")
+    return out
+
+
+def _arrays(name: str) -> dict:
     arrays = {f"{p}.{field}": value for p, trace in run_cases(name).items()
               for field, value in trace._asdict().items()}
     if name == "cuda":  # its own table of the System fields indexed by terrain
         from somite.tasks.cuda_batch import TERRAIN_FIELDS  # imports numba.cuda: only here
         arrays["terrain_fields"] = np.array(sorted(TERRAIN_FIELDS) == sorted(
             f for f in System._fields if f.startswith("terrain_") and f != "terrain_of"))
-    np.savez(out, **arrays)
-    print(json.dumps({"saved": out}))
+    return arrays
+
+
+def main(name: str, out: str) -> None:
+    save(name, out, _arrays)
 
 
 if __name__ == "__main__":

@@ -4,14 +4,12 @@ voxel (issue 72), on hilly terrains for 0.1 s (6 control steps: a delay shows fr
 
 Run as ``python -m tests.delay_batch NAME OUT.npz`` it runs the batch on backend ``NAME`` and
 saves its trace; the ``cuda`` backend runs so under numba-cuda's simulator, which must be
-switched on before Numba is imported, hence in a process of its own (as tests.backend_batch).
+switched on before Numba is imported, hence in a process of its own (tests.backend_batch.run_elsewhere).
 """
 
 from __future__ import annotations
 
-import json
 import sys
-import warnings
 
 import numpy as np
 
@@ -20,8 +18,9 @@ from somite.evolution.operators import add_edge, add_node, initial_genome
 from somite.sim.body import Body
 from somite.sim.config import preset
 from somite.sim.terrain import hilly
-from somite.tasks.backends import BACKENDS
 from somite.tasks.locomotion import compile_batch, run
+
+from .backend_batch import save
 
 DURATION = 0.1
 SEEDS = [5, 6]
@@ -56,14 +55,7 @@ def trace_of(name: str, delayed: list):
 
 
 def main(name: str, out: str) -> None:
-    reason = BACKENDS[name].unavailable()
-    if reason:
-        print(json.dumps({"unavailable": reason}))
-        return
-    warnings.simplefilter("ignore", RuntimeWarning)  # uint64 hashing wraps, as it does compiled
-    trace = trace_of(name, genomes())
-    np.savez(out, **trace._asdict())
-    print(json.dumps({"saved": out}))
+    save(name, out, lambda backend: trace_of(backend, genomes())._asdict())
 
 
 __all__ = ["DURATION", "SEEDS", "batch", "genomes", "grown", "trace_of"]

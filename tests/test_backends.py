@@ -4,9 +4,6 @@ simulator, as CI has no GPU), and lockstep runs write the logs their solo runs w
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 import warnings
 from pathlib import Path
 
@@ -25,7 +22,7 @@ from somite.tasks.lanes import run_batch
 from somite.tasks.locomotion import outcomes
 from somite.tasks.stepper import Episode
 
-from .backend_batch import CASES, batch, run_cases
+from .backend_batch import CASES, batch, run_cases, run_elsewhere
 from .conftest import expect_error
 
 
@@ -45,15 +42,7 @@ def _backend_traces(name: str, tmp_path: Path) -> dict[str, Trace]:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # uint64 hashing wraps
             return run_cases(name)
-    out = tmp_path / f"{name}.npz"
-    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
-    done = subprocess.run([sys.executable, "-m", "tests.backend_batch", name, str(out)],
-                          env=env, cwd=Path(__file__).parents[1], capture_output=True,
-                          text=True, timeout=900)
-    assert done.returncode == 0, done.stderr[-2000:]
-    said = json.loads(done.stdout.splitlines()[-1])
-    if "unavailable" in said:
-        pytest.skip(f"backend {name!r} cannot run here: {said['unavailable']}")
+    out = run_elsewhere("tests.backend_batch", name, tmp_path / f"{name}.npz")
     with np.load(out) as saved:
         if "terrain_fields" in saved:
             assert bool(saved["terrain_fields"])

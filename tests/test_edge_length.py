@@ -10,15 +10,12 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
 import subprocess
 import sys
 import warnings
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
-import pytest
 
 from somite.brain.compile import compile_genome
 from somite.brain.delays import (
@@ -46,6 +43,7 @@ from somite.tasks.locomotion import simulate_batch
 from somite.tasks.stepper import Episode
 
 from . import delay_batch
+from .backend_batch import run_elsewhere
 from .conftest import expect_error
 
 
@@ -157,15 +155,7 @@ def test_cpu_lanes_and_stepper_run_the_delayed_graph_of_the_reference():
 
 def test_the_cuda_kernel_runs_the_delays_as_the_cpu(tmp_path):
     """Under numba-cuda's simulator (CI has no GPU), in a process of its own."""
-    out = tmp_path / "cuda.npz"
-    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
-    done = subprocess.run([sys.executable, "-m", "tests.delay_batch", "cuda", str(out)],
-                          env=env, cwd=Path(__file__).parents[1], capture_output=True,
-                          text=True, timeout=900)
-    assert done.returncode == 0, done.stderr[-2000:]
-    said = json.loads(done.stdout.splitlines()[-1])
-    if "unavailable" in said:
-        pytest.skip(f"the cuda backend cannot run here: {said['unavailable']}")
+    out = run_elsewhere("tests.delay_batch", "cuda", tmp_path / "cuda.npz")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         cpu = delay_batch.trace_of("cpu", delay_batch.genomes())

@@ -216,6 +216,10 @@ def load_run(path: str, every: int) -> Run:
             genome = Genome.from_dict(entry["genome"])
         except (SomiteError, TypeError, KeyError, AttributeError) as error:
             raise bad("run", path, f"bests.jsonl generation {g}: not a genome ({error})") from None
+        if genome.delay_per_voxel:
+            # 2D-VSR-Sim delays every edge one step: it would run another controller.
+            raise bad("run", path, f"its genomes delay edges by their length (delay_per_voxel="
+                      f"{genome.delay_per_voxel:g}, issue 72), which 2D-VSR-Sim cannot run")
         picked.append({"generation": g, "velocity": entry.get("velocity"), "genome": genome,
                        "data": entry["genome"]})
     shapes = {driver_shape(e["genome"], path) for e in picked}

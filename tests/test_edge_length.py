@@ -327,3 +327,12 @@ def test_the_replay_pages_node_activity_follows_the_delays():
                                atol=1e-9)
     undelayed = node_activity(replace(genome, delay_per_voxel=0.0), recording)
     assert np.abs(undelayed[1:, actuators] - h[1:, actuators]).max() > 1e-3
+
+
+def test_a_delayed_genome_is_not_exported_as_a_module(tmp_path, capsys):
+    path = delay_batch.grown("worm", 8, 1.0).save(tmp_path / "delayed.json")
+    assert main(["module", "export", str(path), "--module", "front",
+                 "--partition", "worm-halves", "--out", str(tmp_path / "front.json")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "genome=" in err and "delay_per_voxel=1" in err and "\n" not in err
+    assert not (tmp_path / "front.json").exists()

@@ -62,6 +62,11 @@ def _export(args: argparse.Namespace) -> int:
     # Into a run directory, only with its lock: a running run there refuses the command.
     with lock_if_run(out.parent, run_files):
         donor = load_genome(args.genome)
+        if donor.delay_per_voxel:
+            # A module file has no field for it: the module would run undelayed elsewhere.
+            raise bad("genome", str(args.genome), f"its edges are delayed by their length "
+                      f"(delay_per_voxel={donor.delay_per_voxel:g}), which a module file cannot "
+                      "carry")
         origin = origin_of(args.genome)
         partition = Partition.parse(args.partition or origin.modules or "paper",
                                     donor.body.shape)

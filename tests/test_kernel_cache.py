@@ -16,6 +16,8 @@ import pytest
 from somite import _jit
 
 SOURCE = Path(_jit.__file__).resolve().parent
+KERNELS_FIRST = False
+"""conftest: the subprocesses here run a copy of the package, with caches of its own."""
 
 # A kernel of brain/kernels.py on a one-node graph: a sensor node reads tanh(0.5), tanh being a
 # helper of another file (_math.py).
@@ -165,3 +167,13 @@ def test_processes_that_need_a_kernel_on_a_cold_cache_compile_it_once(tmp_path):
     assert [process.returncode for process in both] == [0, 0]
     assert {out[0] for out in outputs} == {repr(0.46211715726000974)}
     assert sorted(out[2] for out in outputs) == ["0", "1"]
+
+
+def test_a_cache_that_cannot_be_written_costs_a_compile_not_the_run(tmp_path):
+    """Under a file size limit (as tests/test_api_checks.py runs evolve) the cache's data file
+    cannot be written: the kernel still runs, and nothing of it is loaded later."""
+    root = _package_copy(tmp_path)
+    limited = ("import resource; resource.setrlimit(resource.RLIMIT_FSIZE, (2000, 2000))\n"
+               + GRAPH_STEP)
+    value, _ = _run(root, limited)
+    assert value == repr(0.46211715726000974)

@@ -233,20 +233,31 @@ def _one_at_a_time(kernel):
         _compiling.depth = depth + 1
         try:
             if depth:
-                return compile_now(sig)
+                return _compile_unsaved_if_need_be(compile_now, sig)
             try:
                 lock = open(KERNEL_CACHE / name, "a")
             except OSError:
-                return compile_now(sig)
+                return _compile_unsaved_if_need_be(compile_now, sig)
             with lock:
                 fcntl.flock(lock, fcntl.LOCK_EX)
-                return compile_now(sig)  # the lock goes with the file's closing
+                # The lock goes with the file's closing.
+                return _compile_unsaved_if_need_be(compile_now, sig)
         finally:
             _compiling.depth = depth
 
     # Numba calls the instance's ``compile`` for a kernel's first call and for a callee's.
     kernel.compile = compile_waiting
     return kernel
+
+
+def _compile_unsaved_if_need_be(compile_now, sig):
+    try:
+        return compile_now(sig)
+    except OSError:
+        # Numba adds the compiled code to the kernel before it writes it to the cache: a cache
+        # that cannot be written (a full disk, a file size limit) costs a compile next time,
+        # not this run. Asked again, Numba returns that code (an error of its own recurs).
+        return compile_now(sig)
 
 
 @functools.cache

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import fcntl
+import functools
 import os
 import shutil
 import subprocess
@@ -18,10 +19,55 @@ from somite.sim.config import SimConfig
 from somite.sim.system import geometry
 
 
-# No fixture compiles the kernels up front: a test compiles what it calls, when it calls it, and
-# a test worker (or a subprocess: a CLI run, a Dask worker) that needs a kernel another process
-# is compiling waits for it and loads it from the cache (somite._jit's per-kernel lock), so the
-# tests that need no kernel run at once and no kernel is compiled twice at the same time.
+# A test compiles what it calls, when it calls it: tests that need no kernel run at once. A test
+# worker (or a subprocess: a CLI run, a Dask worker) that needs a kernel another process is
+# compiling waits for it and loads it from the cache (somite._jit's per-kernel lock), so no
+# kernel is compiled twice at the same time. Only the tests of a module that starts processes
+# get both kernels first (`kernels`): their subprocesses must find them cached, as under a file
+# size limit or where their stderr is read line by line.
+
+
+def _compile_batch_kernel() -> None:
+    from somite.brain.controllers import Zero
+    from somite.sim.terrain import parse_terrain
+    from somite.tasks.locomotion import simulate_batch
+
+    simulate_batch([Body.build("worm")], [parse_terrain("flat")], [Zero()],
+                   SimConfig(duration=1 / 60))
+
+
+def _compile_stepper() -> None:
+    from somite.brain.controllers import Zero
+    from somite.tasks.stepper import Episode
+
+    Episode([Zero()], "flat", SimConfig(duration=1 / 60), bodies=[Body.build("worm")]).run()
+
+
+@pytest.fixture(scope="session")
+def kernels() -> None:
+    """The batch kernel and the stepper compiled, or loaded from the cache, in this worker (the
+    two workers start on different ones, each waiting for the other's)."""
+    order = [_compile_batch_kernel, _compile_stepper]
+    if int(os.environ.get("PYTEST_XDIST_WORKER", "gw0")[2:] or 0) % 2:
+        order.reverse()
+    for compile_kernel in order:
+        compile_kernel()
+
+
+@functools.cache
+def _starts_processes(path: str) -> bool:
+    text = Path(path).read_text()
+    return "subprocess" in text or "LocalCluster" in text
+
+
+@pytest.fixture(autouse=True)
+def _kernels_for_subprocesses(request) -> None:
+    """``kernels`` for the tests of a module that starts processes, unless it says
+    ``KERNELS_FIRST = False`` (its subprocesses compile nothing of this checkout)."""
+    path = getattr(request.module, "__file__", None)
+    first = getattr(request.module, "KERNELS_FIRST", None)
+    if first or (first is None and path and _starts_processes(path)):
+        request.getfixturevalue("kernels")
 
 
 @pytest.fixture(scope="session")

@@ -28,7 +28,7 @@ import pytest
 SOURCE = Path(__file__).resolve().parents[1] / "src" / "somite"
 
 FOUNDATION = {"errors", "limits", "budget", "_io", "_jit", "_threads", "_math", "types", "formats",
-              "checks", "_cycles", "_arrays"}
+              "checks", "_cycles", "_arrays", "_visible"}
 BELOW_TOP = {"sim", "brain", "tasks", "evolution", "modules", "experiments", "analysis", "viz",
              "bench", "campaigns", "envs"}
 ALLOWED = {

@@ -21,18 +21,10 @@ def visible(text: object) -> str:
     return _CONTROL.sub(lambda m: m[0].encode("unicode_escape").decode("ascii"), str(text))
 
 
-def for_terminal(text: object) -> str:
-    """:func:`visible`, and rich's markup (``[bold]``, ``[link=...]``) escaped, for a string
-    rich would parse."""
-    from rich.markup import escape
-
-    return escape(visible(text))
-
-
 def for_figure(text: object) -> str:
     """:func:`visible`, and ``$`` escaped, for a label matplotlib draws: a pair of ``$`` would
     be parsed as mathtext, and a label such as ``a$\\frac{$`` end the drawing in an error."""
     return visible(text).replace("$", r"\$")
 
 
-__all__ = ["for_figure", "for_terminal", "visible"]
+__all__ = ["for_figure", "visible"]

@@ -334,9 +334,14 @@ def _table(directory: Path, doc: dict, infos: list[dict], compact: bool = False)
     two-word headers on two lines and no space before the first column, which 80 columns hold
     (the longest built-in names just); a name still too long is folded onto a second line
     rather than cut."""
+    from rich.markup import escape
     from rich.table import Table
 
-    from .._visible import for_terminal
+    from .._visible import visible
+
+    def for_terminal(text: object) -> str:
+        # Control characters written out, rich's markup ([bold], [link=...]) shown as text.
+        return escape(visible(text))
 
     # Compact, the first column starts flush left: the longest names need that character.
     # The unit on a line of its own: appended, it wrapped mid-phrase on a narrow table.

@@ -23,6 +23,8 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+from versus import tree  # noqa: E402  (the commit's worktree, as versus.py makes it)
 
 
 def digests() -> dict:
@@ -73,15 +75,6 @@ def digests() -> dict:
     stepped.run()
     add("stepper", stepped.trace)
     return out
-
-
-def tree(commit: str) -> Path:
-    path = ROOT / ".bench-trees" / commit
-    if not (path / "src" / "somite").is_dir():
-        path.parent.mkdir(exist_ok=True)
-        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "--force",
-                        str(path), commit], check=True, capture_output=True)
-    return path
 
 
 def in_tree(src: Path) -> dict:

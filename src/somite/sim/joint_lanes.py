@@ -74,8 +74,8 @@ def exact_order(ends, n_points):
     before it on either of its blocks; sorted stably by level, the joints keep every block's
     order, and neighbours in the order share no block: their chains of dependent arithmetic
     overlap in the CPU (a voxel's springs join only its own four blocks: the worm's 216 springs
-    fall in 17 levels of 12, one of 24; the springs' velocity pass took 1.41 ns a spring and
-    lane instead of 1.55 on AMD Zen 5, ``audits/spring_order.py``, BENCHMARKS.md)."""
+    fall in 17 levels of 12, one of 24; the springs' velocity pass took 1.41-1.49 ns a spring
+    and lane instead of 1.55-1.72 on AMD Zen 5, ``audits/spring_order.py``, BENCHMARKS.md)."""
     n = ends.shape[0]
     last = np.zeros(n_points, dtype=np.int64)
     level = np.empty(n, dtype=np.int64)

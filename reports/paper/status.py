@@ -5,13 +5,16 @@
 Per task, what ``somite campaign status`` reads from the disk: its state, the generation a
 run (evolution or re-optimisation) has logged, its logged best v_x (the luckiest draw of a
 generation's terrains and noise), its last validation v_x (a reassembly's: the reassembled
-robot's, before re-optimisation). Then the robot-control-steps done and left, and the hours
+robot's, before re-optimisation) and, for a reassembly and its re-optimisation, rho: that v_x
+over the mean of the donors' v_x on the same terrains (the reassembly's report.json), as the
+report's Figures 7 and 8 read it at the end. Then the robot-control-steps done and left, and the hours
 left at the runs' recent pace, one task at a time and two at a time (this machine's 2 cores).
 The 12 RQ1 and ablation runs (from paper-rq1, finished) are summed up in one line.
 """
 
 from __future__ import annotations
 
+import json
 import sys
 from pathlib import Path
 
@@ -26,17 +29,31 @@ def _cell(value, digits: int = 3) -> str:
     return "-" if value is None else f"{value:.{digits}f}"
 
 
-def table(doc: dict, infos: list[dict]) -> list[str]:
-    lines = ["| task | kind | state | generation | logged best v_x | validation v_x |",
-             "|---|---|---|---|---|---|"]
+def donors_mean(campaign: Path, task: dict) -> float | None:
+    """The mean of the donors' validation v_x of a reassembly (or of the reassembly a
+    re-optimisation starts from), from its report.json."""
+    start = task["options"].get("start") if task["kind"] == "reoptimize" else task["id"]
+    report = campaign / str(start) / "report.json"
+    if task["kind"] not in ("reassemble", "reoptimize") or not report.is_file():
+        return None
+    validation = json.loads(report.read_text())["validation"]
+    return (validation["v_donor1"] + validation["v_donor2"]) / 2
+
+
+def table(campaign: Path, doc: dict, infos: list[dict]) -> list[str]:
+    lines = ["| task | kind | state | generation | logged best v_x | validation v_x | rho |",
+             "|---|---|---|---|---|---|---|"]
     for task, info in zip(doc["tasks"], infos):
         if task["experiment"] in FROM_RQ1:
             continue
         generation = "-" if info["generations"] is None else \
             f"{info['generation'] if info['generation'] is not None else '-'}" \
             f"/{info['generations']}"
+        donors = donors_mean(campaign, task)
+        rho = None if donors is None or info["validation"] is None else \
+            info["validation"] / donors
         lines.append(f"| {task['id']} | {task['kind']} | {info['state']} | {generation} | "
-                     f"{_cell(info['best'])} | {_cell(info['validation'])} |")
+                     f"{_cell(info['best'])} | {_cell(info['validation'])} | {_cell(rho)} |")
     return lines
 
 
@@ -57,7 +74,7 @@ def main() -> None:
              "",
              f"RQ1 and its ablation (from paper-rq1): {sum(i['state'] == 'done' for i in rq1)} "
              f"of {len(rq1)} runs done (reports/paper-rq1/STATUS.md).", "",
-             *table(doc, infos), ""]
+             *table(campaign, doc, infos), ""]
     (HERE / "STATUS.md").write_text("\n".join(lines))
     print(f"wrote {HERE / 'STATUS.md'}")
 

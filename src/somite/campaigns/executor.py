@@ -31,6 +31,7 @@ from pathlib import Path
 
 from ..errors import bad
 from .directory import finished
+from .kinds import estimate
 from .work import run_task
 
 RETRIES = 3
@@ -272,13 +273,18 @@ def priorities(directory: Path, tasks: list[dict]) -> dict[str, int]:
     campaign of several seeds completes every experiment's seed 0, then every experiment's
     seed 1, ...: stopped part-way (machine time runs out), it holds the same number of finished
     seeds of every experiment, which a comparison between experiments needs, and few partial
-    runs. Begun ones first: a campaign grown by seeds finishes the runs it has first."""
+    runs. Begun ones first: a campaign grown by seeds finishes the runs it has first. A task
+    that simulates nothing (a discovery: its estimate is 0 robot-control-steps) comes before
+    every task not begun that does: it takes a worker for seconds as soon as its needs have run,
+    rather than waiting hours behind runs for a result that costs nothing."""
     seeds = replicates(tasks)
     place = {task["id"]: rank for rank, task in enumerate(tasks)}
 
     def key(task: dict) -> tuple:
         begun = (directory / task["path"]).is_dir()
-        return (not begun, 0 if begun else seeds[task["id"]], place[task["id"]])
+        costly = not begun and estimate(task) > 0
+        return (not begun, costly, 0 if begun or not costly else seeds[task["id"]],
+                place[task["id"]])
 
     ranked = sorted(tasks, key=key)
     return {task["id"]: len(tasks) - rank for rank, task in enumerate(ranked)}

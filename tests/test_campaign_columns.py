@@ -121,13 +121,13 @@ def test_status_shows_every_cell_at_80_columns(tmp_path, capsys, monkeypatch, na
     assert expected[LONGEST][3:] == ["1.500", "0.750"]
     assert expected["rq2-homo/worm-s0+s1"] == ["reassemble", "done", "-", "-", "0.250"]
     assert f"{len(expected) - 4} queued" in out
-    # The discovery of the finished run first (it simulates nothing), then seed 0's last run:
-    # the partial re-optimisation waits for the runs it needs.
-    following = re.search(r"next to start: (\S+), (\S+), \S+ and (\d+) more",
+    # First the discoveries of the finished run and of the running one (they simulate
+    # nothing), then seed 0's last run: the partial re-optimisation waits for the runs it needs.
+    following = re.search(r"next to start: (\S+), (\S+), (\S+) and (\d+) more",
                           " ".join(out.split()))
-    assert following.group(1) == "rq3-discovery/biped-s0"
-    assert following.group(2) == "ablation/biped-s0"
-    assert int(following.group(3)) == len(expected) - 3 - 3  # two done, one running
+    assert following.group(1, 2, 3) == ("rq3-discovery/biped-s0", "rq3-discovery/worm-s0",
+                                        "ablation/biped-s0")
+    assert int(following.group(4)) == len(expected) - 3 - 3  # two done, one running
     # The unit whole on its own line, however narrow the table (it once wrapped mid-phrase).
     assert "v_x in m/s" in [line.strip() for line in out.splitlines()]
 

@@ -274,15 +274,17 @@ def priorities(directory: Path, tasks: list[dict]) -> dict[str, int]:
     seed 1, ...: stopped part-way (machine time runs out), it holds the same number of finished
     seeds of every experiment, which a comparison between experiments needs, and few partial
     runs. Begun ones first: a campaign grown by seeds finishes the runs it has first. A task
-    that simulates nothing (a discovery: its estimate is 0 robot-control-steps) comes before
-    every task not begun that does: it takes a worker for seconds as soon as its needs have run,
-    rather than waiting hours behind runs for a result that costs nothing."""
+    that simulates nothing (a discovery: its estimate is 0 robot-control-steps) and whose needs
+    have all run comes before every task not begun that does: it takes a worker for seconds,
+    rather than waiting hours behind runs for a result that costs nothing (one whose run is
+    still to come keeps its place among its seed's tasks)."""
     seeds = replicates(tasks)
     place = {task["id"]: rank for rank, task in enumerate(tasks)}
 
     def key(task: dict) -> tuple:
         begun = (directory / task["path"]).is_dir()
-        costly = not begun and estimate(task) > 0
+        ready = all(need not in place for need in task["needs"])
+        costly = not begun and (estimate(task) > 0 or not ready)
         return (not begun, costly, 0 if begun or not costly else seeds[task["id"]],
                 place[task["id"]])
 

@@ -7,6 +7,7 @@ so a figure of the report and one of ``somite plot`` on the same runs agree.
 
 from __future__ import annotations
 
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +30,12 @@ def _figure(columns: int, rows: int = 1, width: float = 4.6, height: float = 3.4
     FigureCanvasAgg(figure)
     axes = figure.subplots(rows, max(1, columns), squeeze=False)
     return figure, axes
+
+
+def _title(figure, title: str) -> None:
+    """The figure's title, wrapped to its width: a one-panel figure cut a long one at both
+    edges (about 12 characters an inch at this size)."""
+    figure.suptitle(textwrap.fill(title, max(20, int(figure.get_figwidth() * 12))), fontsize=10)
 
 
 def save(figure, folder: Path, stem: str) -> list[str]:
@@ -61,7 +68,7 @@ def curves_figure(found: dict, title: str):
         bottom.set_xlabel("generation")
         if column == 0:
             top.legend(fontsize=6, frameon=False)
-    figure.suptitle(title, fontsize=10)
+    _title(figure, title)
     return figure
 
 
@@ -76,7 +83,7 @@ def boxes_figure(panels: dict[str, dict[str, list[float]]], ylabel: str, title: 
     for column, (shape, samples) in enumerate(panels.items()):
         plot_samples(axes[0, column], samples, ylabel, one_sided=one_sided)
         axes[0, column].set_title(shape, fontsize=10)
-    figure.suptitle(title, fontsize=10)
+    _title(figure, title)
     if one_sided is not None:
         figure.supxlabel(f"Mann-Whitney U: one-sided p of H1 '{one_sided[0]} > {one_sided[1]}' "
                          "(the paper's test), then the two-sided p", fontsize=7)
@@ -102,7 +109,7 @@ def rho_figure(found: dict, title: str):
         axes_.set_ylabel(r"median $\rho$")
         axes_.grid(alpha=0.3)
         axes_.legend(fontsize=7, frameon=False)
-    figure.suptitle(title, fontsize=10)
+    _title(figure, title)
     return figure
 
 

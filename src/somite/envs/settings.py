@@ -17,7 +17,7 @@ from numbers import Integral, Real
 
 import numpy as np
 
-from ..errors import SomiteTypeError, bad, bad_type
+from ..errors import bad, bad_type
 from ..limits import MAX_STEPPED, MAX_VALIDATION, at_most
 from ..sim.body import Body, Shape
 from ..sim.config import CONTROL_HZ, SimConfig
@@ -26,6 +26,7 @@ from ..sim.sensor_kinds import component_name
 from ..sim.sensors import noise_table
 from ..sim.terrain import Terrain, parse_terrain
 from ..tasks.distributions import TerrainDistribution, parse_distribution
+from ..tasks.stepper import real_array
 from ..tasks.validation import ValidationSet, is_fresh_terrain
 
 GAUSSIAN_BOUND = math.sqrt(-2.0 * math.log(2.0**-62)) + 1e-9
@@ -187,18 +188,9 @@ def checked_actions(field: str, value, shape: tuple[int, ...]) -> np.ndarray:
     """``value`` as float64 of ``shape``, checked before it is converted: real numbers only
     (a string, a bool, a complex or an object would convert to a float silently), every one
     in [-1, 1] (NaN refused)."""
-    if isinstance(value, (str, bytes)):
-        raise bad_type(field, value, "an array of numbers")
-    try:
-        array = np.asarray(value)
-    except (ValueError, TypeError):  # a ragged list
-        raise bad_type(field, value, "an array of numbers") from None
-    if array.dtype.kind not in "iuf":
-        raise SomiteTypeError(str(bad(field, value, f"expected real numbers (float or int), "
-                                      f"not values of dtype {array.dtype}")))
+    array = real_array(field, value).copy()  # the caller keeps its own array
     if array.shape != shape:
         raise bad(field, f"shape {array.shape}", f"must have shape {shape}")
-    array = array.astype(np.float64)
     inside = np.abs(array) <= 1.0  # False for NaN
     if not inside.all():
         raise bad(field, float(array.flat[np.argmin(inside)]), "every value must be in [-1, 1]")

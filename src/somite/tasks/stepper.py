@@ -25,7 +25,7 @@ from .._threads import THREAD_NAME, spread, threads_for
 from ..brain.compile import compile_genome
 from ..brain.genome import Genome
 from ..budget import check_batch
-from ..errors import bad, bad_type
+from ..errors import SomiteTypeError, bad, bad_type
 from ..limits import MAX_STEPPED
 from ..sim.body import Body
 from ..sim.config import SimConfig, pack_params
@@ -115,9 +115,10 @@ def step_in_groups(k, batch: Batch, groups, given, pool: Executor | None = None,
     spread(lambda j: step_groups(k, batch, given, groups, j, threads), threads, pool)
 
 
-def _real_array(field: str, value) -> np.ndarray:
-    """``value`` as a float64 array, if it holds real numbers (not strings, not complex,
-    not objects, which NumPy would convert or refuse deep inside)."""
+def real_array(field: str, value) -> np.ndarray:
+    """``value`` as a float64 array, if it holds real numbers (not strings, bools, complex or
+    objects, which NumPy would convert silently or refuse deep inside); a one-line error naming
+    ``field`` otherwise."""
     if isinstance(value, (str, bytes)):
         raise bad_type(field, value, "an array of numbers")
     try:
@@ -125,7 +126,8 @@ def _real_array(field: str, value) -> np.ndarray:
     except (ValueError, TypeError):  # a ragged list
         raise bad_type(field, value, "an array of numbers") from None
     if array.dtype.kind not in "iuf":
-        raise bad_type(field, f"an array of dtype {array.dtype}", "an array of real numbers")
+        raise SomiteTypeError(str(bad(field, value, f"expected real numbers (float or int), "
+                                      f"not values of dtype {array.dtype}")))
     return array.astype(np.float64, copy=False)
 
 
@@ -264,7 +266,7 @@ class Episode:
             raise bad("step", self._k + 1, f"the episode has {self.n_steps} control steps")
         given = self._no_actuation
         if actuation is not None:
-            given = _real_array("actuation", actuation)
+            given = real_array("actuation", actuation)
             expected = (self.n_robots, self.n_voxels)
             if given.shape != expected:
                 raise bad("actuation", f"shape {given.shape}", f"must have shape {expected}")
@@ -326,4 +328,4 @@ class Episode:
         return _read_only(self._trace.diagnostics)
 
 
-__all__ = ["Episode", "start_batch", "step_batch", "step_in_groups"]
+__all__ = ["Episode", "real_array", "start_batch", "step_batch", "step_in_groups"]

@@ -295,6 +295,21 @@ def test_the_paper_grows_from_a_paper_rq1_folder_and_starts_with_rq1s_stages(tmp
     assert "paper:N takes a count of seeds" in capsys.readouterr().err
 
 
+def test_a_folder_of_a_builtin_made_before_its_experiments_were_reordered_resumes(tmp_path):
+    """The paper structure's experiments were reordered (issue 67): a folder written in the
+    old order holds the same tasks, so it resumes as it is, in its own order."""
+    from somite.campaigns.directory import document, prepare
+
+    smoke = builtin("smoke")
+    doc = document(smoke, expand(smoke))
+    before = ["rq1", "ablation", "omega-10", "omega-0.1", "rq2-homo", "rq2-hetero",
+              "omega-reassembly", "rq3-discovery", "rq3-reassembly"]
+    old = {**doc, "tasks": sorted(doc["tasks"], key=lambda t: before.index(t["experiment"]))}
+    assert old["tasks"] != doc["tasks"]
+    (tmp_path / "campaign.json").write_text(json.dumps(old))
+    assert prepare(tmp_path, doc, resume=True)["tasks"] == old["tasks"]
+
+
 # -- running on Dask ----------------------------------------------------------------------------
 
 def _run(*args, **kwargs) -> subprocess.CompletedProcess:

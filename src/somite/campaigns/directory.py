@@ -220,8 +220,8 @@ def prepare(directory: str | Path, doc: dict | None, resume: bool, write: bool =
         if not resume:
             raise bad("out", str(directory), f"holds campaign {there.get('name')!r} already; "
                       "--resume continues it, or give another folder")
-        if there["tasks"] == doc["tasks"]:
-            return there
+        if _by_id(there["tasks"]) == _by_id(doc["tasks"]):
+            return there  # the same tasks (a built-in reordered since keeps the folder's order)
         if not _grows(there, doc):
             raise bad("out", str(directory), f"holds campaign {there.get('name')!r}, whose "
                       "tasks are not this campaign's; give another folder")
@@ -239,6 +239,10 @@ def prepare(directory: str | Path, doc: dict | None, resume: bool, write: bool =
         directory.mkdir(parents=True, exist_ok=True)
         write_atomic(held, json.dumps(doc, indent=1) + "\n")
     return doc
+
+
+def _by_id(tasks: list) -> dict:
+    return {task["id"]: task for task in tasks}
 
 
 def _grows(there: dict, doc: dict) -> bool:

@@ -149,11 +149,16 @@ def test_experiments_declare_their_figures_into_campaign_json():
     assert found["figure5"] == {"graph": "graph controller", "fixed": "weights"}
     assert found["figure3"] == {"graph": "graph"}  # "": the experiment's name
     missing = figures.missing(found)
-    assert set(missing) == set(figures.FIGURES) - {"figure3", "figure5", "table1"}
+    # The edge lengths are beyond the paper: a campaign without them lacks nothing.
+    assert set(missing) == set(figures.FIGURES) - {"figure3", "figure5", "table1",
+                                                   "edge-lengths"}
     assert "no reassemble experiment declares it" in missing["figure7"]
-    # The built-ins declare every figure.
+    # The built-ins declare every figure of the paper; lengths the edge lengths of its EAs.
     assert figures.missing(figures.declared({e.name: e.figures for e in
                                              builtin("quick").experiments})) == {}
+    lengths = figures.declared({e.name: e.figures for e in builtin("lengths").experiments})
+    assert lengths["edge-lengths"] == {e: e for e in ("neutral", "distance-bias",
+                                                      "length-delay")}
 
 
 @pytest.mark.parametrize("change, field", [

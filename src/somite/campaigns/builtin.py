@@ -155,13 +155,14 @@ def edge_length(budget: dict) -> dict:
     """The comparison of issue 72 at ``budget``: the neutral EA, the distance-biased edge
     addition and the length-dependent delays, both shapes, and each one's homogeneous
     reassembly (run i's back or legs with run i+1's front or torso), re-optimised; Figure 3
-    (v_x and |G|) and Figure 7 (rho) put the three side by side."""
+    (v_x and |G|), the final bests' edge lengths and Figure 7 (rho) put the three side by
+    side."""
     grid = {"kind": "evolve", "shapes": SHAPES, "seeds": budget["seeds"]}
     runs, reassemblies = {}, {}
     for name, (options, title) in EDGE_LENGTH_VARIANTS.items():
         runs[name] = {**grid, **({"options": dict(options)} if options else {}),
                       "title": title, "paper": "Section 4 (limitations): beyond the paper",
-                      "figures": {"figure3": name}}
+                      "figures": {"figure3": name, "edge-lengths": name}}
         reassemblies[f"{name}-homo"] = {
             "kind": "reassemble", "donors": name, "pairing": "next",
             "reoptimize": {"generations": budget["reoptimize"]},

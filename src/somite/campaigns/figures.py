@@ -10,7 +10,8 @@ An experiment's ``figures`` table names the figures it feeds and its group's lab
 A label ``""`` is the experiment's name. :data:`FIGURES` lists every figure, the kind of
 experiment that feeds it and how many experiments it compares; the report draws each from the
 experiments that declare it, in the campaign's order, and says in one line which figures no
-experiment feeds (:func:`missing`). ``campaign.json`` keeps each experiment's declaration.
+experiment feeds (:func:`missing`), but for those beyond the paper (``optional``), which only
+the campaigns that ask for them show. ``campaign.json`` keeps each experiment's declaration.
 """
 
 from __future__ import annotations
@@ -23,11 +24,14 @@ from ..errors import bad
 @dataclass(frozen=True)
 class Figure:
     """A figure (or table) of the report: the kind of experiment that feeds it, what it
-    shows, and how many experiments it compares (None: any number)."""
+    shows, how many experiments it compares (None: any number), and whether it is
+    ``optional``: beyond the paper, a section only where an experiment declares it (a
+    campaign without it lacks nothing)."""
 
     kind: str
     shows: str
     groups: int | None = None
+    optional: bool = False
 
 
 FIGURES: dict[str, Figure] = {
@@ -41,6 +45,8 @@ FIGURES: dict[str, Figure] = {
     "figure8": Figure("reassemble", "Figures 8 and 9: rho and cut ratios of the homogeneous "
                       "reassemblies, grouped by the donors' omega (the label is not used)"),
     "discovered": Figure("reassemble", "rho along the discovered modules"),
+    "edge-lengths": Figure("evolve", "the distribution of the final bests' edge lengths "
+                           "(issue 72)", optional=True),
 }
 
 
@@ -96,12 +102,15 @@ def check(experiments: dict[str, dict[str, str]],
 def missing(found: dict[str, dict[str, str]],
             variants: dict[str, int] | None = None) -> dict[str, str]:
     """Figure -> why the report cannot draw it from ``found`` (:func:`declared`), an
-    experiment of ``variants[name]`` variants counting as as many groups."""
+    experiment of ``variants[name]`` variants counting as as many groups; an optional figure
+    no experiment declares is not missing."""
     variants = variants or {}
     out = {}
     for name, figure in FIGURES.items():
         members = found.get(name, {})
         groups = sum(variants.get(e, 1) for e in members)
+        if not members and figure.optional:
+            continue
         if not members:
             out[name] = f"no {figure.kind} experiment declares it"
         elif figure.groups is not None and groups != figure.groups:

@@ -9,7 +9,8 @@ from ._progress import stages
 from .common import add_options, warn, whole_int
 
 HELP = ("Report a campaign directory: the paper's Table 1 and Figures 3, 5, 7-12 beside the "
-        "paper's numbers, validation re-runs, time-lapses (index.md, report.json, figures/).")
+        "paper's numbers, the final bests' edge lengths where the campaign declares them, "
+        "validation re-runs, time-lapses (index.md, report.json, figures/).")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -5,7 +5,9 @@ report trusts nothing else: a task without ``done.json`` is *missing* (its folde
 partial run), and so is a finished task whose files cannot be read (with the reason). Which
 experiment feeds which figure is each experiment's ``figures`` (:mod:`somite.campaigns.figures`);
 a ``campaign.json`` written before experiments declared them is read with the built-ins'
-declarations (:data:`somite.campaigns.builtin.DECLARED_FIGURES`).
+declarations (:data:`somite.campaigns.builtin.DECLARED_FIGURES`), and a built-in campaign's
+folder also with the figures its built-in declares now and the folder's file lacks (a figure
+added to the report while the campaign ran).
 """
 
 from __future__ import annotations
@@ -14,11 +16,11 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 
 from ..campaigns import figures as figure_table
-from ..campaigns.builtin import DECLARED_FIGURES
+from ..campaigns.builtin import DECLARED_FIGURES, builtin, is_builtin
 from ..campaigns.directory import read
 from ..campaigns.kinds import TASK_KINDS
 from ..campaigns.layout import read_done
-from ..errors import bad
+from ..errors import SomiteError, bad
 
 
 @dataclass(frozen=True)
@@ -128,7 +130,7 @@ def read_campaign(root: str | Path) -> CampaignFolder:
     # Experiments that only the tasks name still get a section.
     for task in tasks:
         experiments.setdefault(task.experiment, {})
-    figures = _figures(experiments)
+    figures = _figures(experiments, str(data.get("source", "")))
     if not figures:
         return CampaignFolder(root, str(data.get("name", root.name)),
                               str(data.get("source", "")), experiments, tuple(tasks),
@@ -137,13 +139,35 @@ def read_campaign(root: str | Path) -> CampaignFolder:
                           experiments, tuple(tasks), figures)
 
 
-def _figures(experiments: dict[str, dict]) -> dict[str, dict[str, str]]:
+def _figures(experiments: dict[str, dict], source: str) -> dict[str, dict[str, str]]:
     if any("figures" in info for info in experiments.values()):
         declared = {name: info.get("figures", {}) for name, info in experiments.items()}
     else:  # written before experiments declared their figures: the built-ins' names
         declared = {name: DECLARED_FIGURES[name] for name in experiments
                     if name in DECLARED_FIGURES}
-    return figure_table.declared(declared)
+    now = _builtin_figures(source)
+    return figure_table.declared({name: _with(declared.get(name, {}), now.get(name, {}))
+                                  for name in experiments})
+
+
+def _with(held: dict[str, str], now: dict[str, str]) -> dict[str, str]:
+    """An experiment's declaration as its folder ``held`` it, and the figures of ``now`` it
+    lacks after them."""
+    return {**held, **{name: label for name, label in now.items() if name not in held}}
+
+
+def _builtin_figures(source: str) -> dict[str, dict[str, str]]:
+    """Experiment -> the figures it declares in the built-in campaign ``source`` names
+    (``builtin:lengths``) as this version of somite writes it; nothing for a file's campaign
+    or a built-in this version lacks. The lengths campaign started before its experiments
+    declared ``edge-lengths``: its folder keeps the declarations it was written with."""
+    prefix, _, name = source.partition(":")
+    if prefix != "builtin" or not is_builtin(name):
+        return {}
+    try:
+        return {e.name: dict(e.figures) for e in builtin(name).experiments}
+    except SomiteError:
+        return {}
 
 
 def shown(tasks) -> dict[str, dict[str, str]]:

@@ -47,4 +47,22 @@ class Section:
     render: Callable[[dict], list[str]]
 
 
-__all__ = ["Inputs", "Section"]
+def joined(*parts: Section) -> Section:
+    """One kind's section made of ``parts``: their entries and their lines, in order (the
+    evolve experiments' figures, then the edge lengths that some of them declare). An entry
+    two parts make is refused, as between kinds."""
+
+    def build(inputs: Inputs) -> dict:
+        out: dict = {}
+        for part in parts:
+            entries = part.build(inputs)
+            taken = sorted(set(entries) & set(out))
+            if taken:
+                raise ValueError(f"report.json's entries {taken} made by two sections")
+            out.update(entries)
+        return out
+
+    return Section(build, lambda report: [line for part in parts for line in part.render(report)])
+
+
+__all__ = ["Inputs", "Section", "joined"]

@@ -4,17 +4,18 @@ The report builds and shows them in the order of
 :data:`somite.campaigns.kinds.EXPERIMENT_KINDS` (a section's build and render:
 :mod:`.section`). A new kind of experiment gets its part of the report by a module of its own
 here (its ``SECTION``) and its line below; a kind with nothing to show still has its line, a
-:class:`~.section.Section` that builds ``{}`` and renders ``[]``.
+:class:`~.section.Section` that builds ``{}`` and renders ``[]``. A part that only some
+campaigns declare (the edge lengths, :mod:`.edge_lengths`) joins its kind's section.
 """
 
 from __future__ import annotations
 
 from ..campaigns.kinds import EXPERIMENT_KINDS
-from . import discovery, evolution, reassembly
-from .section import Section
+from . import discovery, edge_lengths, evolution, reassembly
+from .section import Section, joined
 
 SECTIONS: dict[str, Section] = {
-    "evolve": evolution.SECTION,
+    "evolve": joined(evolution.SECTION, edge_lengths.SECTION),
     "reassemble": reassembly.SECTION,  # its re-optimisations' too
     "discover": discovery.SECTION,
 }

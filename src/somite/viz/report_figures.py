@@ -113,6 +113,38 @@ def rho_figure(found: dict, title: str):
     return figure
 
 
+def edge_lengths_figure(found: dict, title: str):
+    """The final bests' edge lengths: per shape, for each length [voxels] between voxels the
+    share of each group's edges (pooled over its runs) that have it, the groups' bars side by
+    side; the share inside a voxel (length 0) is in the legend."""
+    figure, axes = _figure(len(found), width=5.2, height=4.0)
+    for column, (shape, groups) in enumerate(found.items()):
+        axes_ = axes[0, column]
+        # Edges inside a voxel are most of a young controller's: as a bar they would flatten
+        # the lengths the two options act on.
+        lengths = sorted({d for e in groups.values() for d in e["lengths"] if d > 0})
+        # Lengths as categories: 2.828 and 3 would overlap on a scale of voxels.
+        width = 0.8 / len(groups)
+        for k, (label, e) in enumerate(groups.items()):
+            share = dict(zip(e["lengths"], e["shares"]))
+            x = np.arange(len(lengths)) + (k - (len(groups) - 1) / 2) * width
+            axes_.bar(x, [share.get(d, 0.0) for d in lengths], width,
+                      color=COLOURS[k % len(COLOURS)],
+                      label=f"{for_figure(label)} ({len(e['runs'])} runs, {e['edges']} edges, "
+                            f"{100 * share.get(0.0, 0.0):.0f} % inside a voxel)")
+        axes_.set_xticks(np.arange(len(lengths)),
+                         [f"{d:.3f}".rstrip("0").rstrip(".") for d in lengths], fontsize=7)
+        axes_.set_title(shape, fontsize=10)
+        axes_.set_xlabel("length of an edge between voxels [voxels]")
+        axes_.set_ylabel("share of the group's edges")
+        axes_.grid(alpha=0.3, axis="y")
+        # Below the panel: above it the legend would hide the bars.
+        axes_.legend(fontsize=7, frameon=False, loc="upper center",
+                     bbox_to_anchor=(0.5, -0.18))
+    _title(figure, title)
+    return figure
+
+
 def validation_figure(rows: list[dict]):
     """Every final best: its logged v_x (x) against its mean v_x on the validation terrains
     (y, filled), and on the fresh terrains where the rows have them (hollow), one colour per
@@ -170,5 +202,5 @@ def discovery_figure(rows: list[dict], per_row: int = 5):
     return figure
 
 
-__all__ = ["boxes_figure", "curves_figure", "discovery_figure", "rho_figure", "save",
-           "validation_figure"]
+__all__ = ["boxes_figure", "curves_figure", "discovery_figure", "edge_lengths_figure",
+           "rho_figure", "save", "validation_figure"]

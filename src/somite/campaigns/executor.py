@@ -25,7 +25,7 @@ import time
 import uuid
 import warnings
 from collections.abc import Callable
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -86,16 +86,32 @@ class Connection:
     def __init__(self, scheduler: str | None, workers: int) -> None:
         self.client, self.cluster = _client(scheduler, workers)
 
-    def close(self) -> None:
-        self.client.close()
-        if self.cluster is not None:
-            self.cluster.close()
+    def close(self, interrupted: bool = False) -> None:
+        """Close the client and the cluster; ``interrupted``: a Ctrl-C is unwinding, and what
+        Dask logs while its nannies stop (a worker killed mid-task, a close timed out on a
+        loaded machine) is not shown: the user stopped it, and gets one line."""
+        with _dask_quiet() if interrupted else nullcontext():
+            self.client.close()
+            if self.cluster is not None:
+                self.cluster.close()
 
     def __enter__(self) -> Connection:
         return self
 
-    def __exit__(self, *exc) -> None:
-        self.close()
+    def __exit__(self, kind, *exc) -> None:
+        self.close(interrupted=kind is not None and issubclass(kind, KeyboardInterrupt))
+
+
+@contextmanager
+def _dask_quiet():
+    """This process's logging off (a LocalCluster's nannies log from here, each under its own
+    logger and level), then back as it was."""
+    before = logging.root.manager.disable
+    logging.disable(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logging.disable(before)
 
 
 def connect(scheduler: str | None, workers: int | None = None,
@@ -125,7 +141,31 @@ def _client(scheduler: str | None, workers: int):
         warnings.filterwarnings("ignore", message="Port .* is already in use")
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                silence_logs=logging.ERROR, dashboard_address=address)
-    return Client(cluster), cluster
+    client = Client(cluster)
+    client.run(_quiet_while_closing)
+    return client, cluster
+
+
+class _Open(logging.Filter):
+    """Passes a record while its worker is not shutting down."""
+
+    def __init__(self, worker) -> None:
+        super().__init__()
+        self.worker = worker
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        from distributed.core import Status
+
+        return self.worker.status not in (Status.closing, Status.closing_gracefully,
+                                          Status.closed, Status.failed)
+
+
+def _quiet_while_closing(dask_worker) -> None:
+    """On a local worker (it writes to this terminal): nothing it logs once it is closing is
+    shown. Stopped by Ctrl-C on a loaded machine, a worker logged the reset of its nanny's
+    connection with three tracebacks before the campaign's one line."""
+    for handler in logging.getLogger("distributed").handlers + logging.getLogger().handlers:
+        handler.addFilter(_Open(dask_worker))
 
 
 @contextmanager
@@ -184,6 +224,7 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
     from distributed import wait
 
     running: dict[str, object] = {}
+    interrupted = False
     try:
         outcome.dashboard = dashboard_link(client, cluster is not None)
         token = uuid.uuid4().hex[:8]  # a scheduler may hold another campaign's tasks
@@ -215,12 +256,17 @@ def execute(directory: str | Path, doc: dict, scheduler: str | None = None,
                     pass
             elif waiting:
                 time.sleep(0.5)
+    except KeyboardInterrupt:
+        interrupted = True
+        with _dask_quiet():
+            client.cancel(list(running.values()))
+        raise
     except BaseException:
         client.cancel(list(running.values()))
         raise
     finally:
         if own:
-            connection.close()
+            connection.close(interrupted)
     outcome.wall_s = time.perf_counter() - start
     return outcome
 

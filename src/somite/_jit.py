@@ -37,7 +37,6 @@ import os
 import shutil
 import sys
 import tempfile
-import threading
 import types
 from pathlib import Path
 
@@ -47,7 +46,8 @@ except ImportError:  # not on Windows: the folders are then kept, never pruned
     fcntl = None
 
 import numba
-from numba.core import config
+from numba.core import config, sigutils
+from numba.core.compiler_lock import global_compiler_lock
 from numba.core.registry import CPUDispatcher
 
 if "NUMBA_SLP_VECTORIZE" not in os.environ:
@@ -214,14 +214,15 @@ def njit(*args, **kwargs):
     return lambda function: _one_at_a_time(numba.njit(**options)(function))
 
 
-_compiling = threading.local()  # how deep in compiles this thread is (callees compile inside)
-
-
 def _one_at_a_time(kernel):
-    """``kernel`` (a dispatcher) whose compiles, when not inside another one, hold a lock on a
-    file of :data:`KERNEL_CACHE` named after it: processes that need the same kernel on a cold
-    cache (test workers, a campaign's workers) then compile it once, and the others load it from
-    the cache once the first is done, instead of each spending minutes on the same compile."""
+    """``kernel`` (a dispatcher) whose compiles hold a lock on a file of :data:`KERNEL_CACHE`
+    named after it: processes that need the same kernel on a cold cache (test workers, a
+    campaign's workers, :mod:`somite.tasks.warm`'s second process) then compile it once, and the
+    others load it from the cache once the first is done, instead of each spending minutes on
+    the same compile. A callee's compile (inside its caller's) takes its own lock too, so two
+    processes compiling one call tree from different ends share its kernels; they cannot wait
+    on each other, as a process holds only the locks of the kernels it is inside, and no kernel
+    calls its callers."""
     if fcntl is None or not isinstance(kernel, CPUDispatcher):
         return kernel  # NUMBA_DISABLE_JIT: nothing is compiled
     compile_now = kernel.compile
@@ -229,11 +230,12 @@ def _one_at_a_time(kernel):
 
     @functools.wraps(compile_now)
     def compile_waiting(sig):
-        depth = getattr(_compiling, "depth", 0)
-        _compiling.depth = depth + 1
-        try:
-            if depth:
-                return _compile_unsaved_if_need_be(compile_now, sig)
+        if _compiled_here(kernel, sig):
+            # Typing asks again at every call site of a compiled callee.
+            return compile_now(sig)
+        # Numba's own lock first, as its compile of a caller takes it before a callee's file
+        # lock: two threads of this process then never hold one each and wait for the other.
+        with global_compiler_lock:
             try:
                 lock = open(KERNEL_CACHE / name, "a")
             except OSError:
@@ -242,12 +244,18 @@ def _one_at_a_time(kernel):
                 fcntl.flock(lock, fcntl.LOCK_EX)
                 # The lock goes with the file's closing.
                 return _compile_unsaved_if_need_be(compile_now, sig)
-        finally:
-            _compiling.depth = depth
 
     # Numba calls the instance's ``compile`` for a kernel's first call and for a callee's.
     kernel.compile = compile_waiting
     return kernel
+
+
+def _compiled_here(kernel, sig) -> bool:
+    try:
+        args, _ = sigutils.normalize_signature(sig)
+    except (TypeError, ValueError):
+        return False
+    return tuple(args) in kernel.overloads
 
 
 def _compile_unsaved_if_need_be(compile_now, sig):

@@ -126,14 +126,14 @@ _pass(
      "nx_{l} * j_{l}, ny_{l} * j_{l}, ima, iia, imb, iib)",
      # An inactive limit keeps its velocities and its stale direction and mass (never read
      # while it is inactive), as physics.rope_setup leaves them.
-     "a0_{l} = n0_{l} if on_{l} else a0_{l}", "a1_{l} = n1_{l} if on_{l} else a1_{l}",
-     "a2_{l} = n2_{l} if on_{l} else a2_{l}", "b0_{l} = n3_{l} if on_{l} else b0_{l}",
-     "b1_{l} = n4_{l} if on_{l} else b1_{l}", "b2_{l} = n5_{l} if on_{l} else b2_{l}"],
-    ["w[R_NX, {l}] = nx_{l} if on_{l} else nx0_{l}",
-     "w[R_NY, {l}] = ny_{l} if on_{l} else ny0_{l}",
-     "w[R_MASS, {l}] = mass if on_{l} else mass0_{l}",
-     "w[R_ACTIVE, {l}] = 1.0 if on_{l} else 0.0",
-     "w[R_IMPULSE, {l}] = j_{l} if on_{l} else 0.0"] + _STORE_VELOCITIES,
+     "a0_{l} = chosen(on_{l}, n0_{l}, a0_{l})", "a1_{l} = chosen(on_{l}, n1_{l}, a1_{l})",
+     "a2_{l} = chosen(on_{l}, n2_{l}, a2_{l})", "b0_{l} = chosen(on_{l}, n3_{l}, b0_{l})",
+     "b1_{l} = chosen(on_{l}, n4_{l}, b1_{l})", "b2_{l} = chosen(on_{l}, n5_{l}, b2_{l})"],
+    ["w[R_NX, {l}] = chosen(on_{l}, nx_{l}, nx0_{l})",
+     "w[R_NY, {l}] = chosen(on_{l}, ny_{l}, ny0_{l})",
+     "w[R_MASS, {l}] = chosen(on_{l}, mass, mass0_{l})",
+     "w[R_ACTIVE, {l}] = chosen(on_{l}, 1.0, 0.0)",
+     "w[R_IMPULSE, {l}] = chosen(on_{l}, j_{l}, 0.0)"] + _STORE_VELOCITIES,
     doc="""Each rope limit set up for this step and warm-started (``physics.rope_setup``).""")
 
 _pass(
@@ -144,10 +144,10 @@ _pass(
     ["j_{l} = rope_impulse(nx_{l}, ny_{l}, mass_{l}, a0_{l}, a1_{l}, b0_{l}, b1_{l})",
      "n0_{l}, n1_{l}, n2_{l}, n3_{l}, n4_{l}, n5_{l} = pushed(" + _OLD + ", 0.0, 0.0, 0.0, 0.0, "
      "nx_{l} * j_{l}, ny_{l} * j_{l}, ima, iia, imb, iib)",
-     "a0_{l} = n0_{l} if on_{l} else a0_{l}", "a1_{l} = n1_{l} if on_{l} else a1_{l}",
-     "a2_{l} = n2_{l} if on_{l} else a2_{l}", "b0_{l} = n3_{l} if on_{l} else b0_{l}",
-     "b1_{l} = n4_{l} if on_{l} else b1_{l}", "b2_{l} = n5_{l} if on_{l} else b2_{l}"],
-    ["w[R_IMPULSE, {l}] = impulse_{l} + j_{l} if on_{l} else impulse_{l}"]
+     "a0_{l} = chosen(on_{l}, n0_{l}, a0_{l})", "a1_{l} = chosen(on_{l}, n1_{l}, a1_{l})",
+     "a2_{l} = chosen(on_{l}, n2_{l}, a2_{l})", "b0_{l} = chosen(on_{l}, n3_{l}, b0_{l})",
+     "b1_{l} = chosen(on_{l}, n4_{l}, b1_{l})", "b2_{l} = chosen(on_{l}, n5_{l}, b2_{l})"],
+    ["w[R_IMPULSE, {l}] = chosen(on_{l}, impulse_{l} + j_{l}, impulse_{l})"]
     + _STORE_VELOCITIES,
     doc="""One velocity pass over the active rope limits (``physics.rope_solve``).""")
 
@@ -186,12 +186,12 @@ _pass(
 _POSITIONS = ["pa0_{l} = pa[0, {l}]", "pa1_{l} = pa[1, {l}]", "pa2_{l} = pa[2, {l}]",
               "pb0_{l} = pb[0, {l}]", "pb1_{l} = pb[1, {l}]", "pb2_{l} = pb[2, {l}]"]
 _OLD_POSITIONS = "pa0_{l}, pa1_{l}, pa2_{l}, pb0_{l}, pb1_{l}, pb2_{l}"
-_STORE_MOVED = ["pa[0, {l}] = n0_{l} if move_{l} else pa0_{l}",
-                "pa[1, {l}] = n1_{l} if move_{l} else pa1_{l}",
-                "pa[2, {l}] = n2_{l} if move_{l} else pa2_{l}",
-                "pb[0, {l}] = n3_{l} if move_{l} else pb0_{l}",
-                "pb[1, {l}] = n4_{l} if move_{l} else pb1_{l}",
-                "pb[2, {l}] = n5_{l} if move_{l} else pb2_{l}"]
+_STORE_MOVED = ["pa[0, {l}] = chosen(move_{l}, n0_{l}, pa0_{l})",
+                "pa[1, {l}] = chosen(move_{l}, n1_{l}, pa1_{l})",
+                "pa[2, {l}] = chosen(move_{l}, n2_{l}, pa2_{l})",
+                "pb[0, {l}] = chosen(move_{l}, n3_{l}, pb0_{l})",
+                "pb[1, {l}] = chosen(move_{l}, n4_{l}, pb1_{l})",
+                "pb[2, {l}] = chosen(move_{l}, n5_{l}, pb2_{l})"]
 _BUSY = ["busy_{l} = not flags[{l}, DONE]", "held_{l} = True"]
 
 _pass(
@@ -235,10 +235,10 @@ _pass(
      + ", rbx_{l}, rby_{l}, jx_{l}, jy_{l}, jz_{l}, ima, iia, imb, iib)",
      "nca_{l}, nsa_{l} = sincos(n2_{l})", "ncb_{l}, nsb_{l} = sincos(n5_{l})",
      "held_{l} = held_{l} & ok_{l}"],
-    _STORE_MOVED + ["ca[{l}] = nca_{l} if busy_{l} else ca_{l}",
-                    "sa[{l}] = nsa_{l} if busy_{l} else sa_{l}",
-                    "cb[{l}] = ncb_{l} if busy_{l} else cb_{l}",
-                    "sb[{l}] = nsb_{l} if busy_{l} else sb_{l}"],
+    _STORE_MOVED + ["ca[{l}] = chosen(busy_{l}, nca_{l}, ca_{l})",
+                    "sa[{l}] = chosen(busy_{l}, nsa_{l}, sa_{l})",
+                    "cb[{l}] = chosen(busy_{l}, ncb_{l}, cb_{l})",
+                    "sb[{l}] = chosen(busy_{l}, nsb_{l}, sb_{l})"],
     before=_BUSY, after=["flags[{l}, WELDS_HELD] = held_{l}"],
     doc="""One position pass over the welds of the busy lanes (``physics.weld_fix``);
 ``flags[l, WELDS_HELD]``: whether lane l's all hold.""")
@@ -258,6 +258,16 @@ from .physics import (
 from .trig import sincos
 
 LANES = {LANES}
+
+
+@uncounted
+def chosen(on, yes, no):
+    """``yes if on else no``. A call, where the passes would otherwise hold hundreds of
+    conditional expressions: each is a branch in Numba's IR, and Numba's SSA pass takes time
+    in the product of the branches and the variables they define (``fix_welds``, 80 of them,
+    took 6.1 s of CPU to compile, 4.1 s with calls; BENCHMARKS.md, "The first compile on two
+    cores"). LLVM inlines it back into the same selects."""
+    return yes if on else no
 
 # Columns of a group's flags (LANES, 4), a row a lane: its robot's position passes are over (or
 # it holds no running robot), and what this pass found of its contacts, ropes, welds.

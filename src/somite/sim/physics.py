@@ -201,7 +201,7 @@ def relative_velocity(vel, a, b, rax, ray, rbx, rby):
     return vel[a, 0] - vel[a, 2] * ray, vel[a, 1] + vel[a, 2] * rax
 
 
-@njit(inline="always")
+@njit  # called, as a lane pass calls it for every lane (LLVM inlines it)
 def unit(x, y):
     """(x, y) scaled to length 1, and its length; a vector shorter than LINEAR_SLOP has no
     direction (dyn4j's rule), so it gives (0, 0)."""
@@ -880,7 +880,10 @@ def above_segment(xs, ys, i, poly):
     return top - low <= 0.0
 
 
-@njit(inline="always")
+# deepest_axis and manifold are called, not inlined: add_contacts, twice in find_contacts,
+# inlined them (and manifold its two clips and farthest edges) at each site, seconds of
+# compiling for what LLVM inlines or calls at no measurable cost.
+@uncounted
 def deepest_axis(one, two):
     """The separating-axis test of two convex quadrilaterals: (overlap, nx, ny) with the
     normal of least penetration, from ``one`` towards ``two`` (ties to ``one``'s faces);
@@ -950,7 +953,7 @@ def clip(clipped, n_in, nx, ny, offset):
     return 2
 
 
-@njit(inline="always")
+@uncounted
 def manifold(one, two, nx, ny, clipped):
     """The contact points of two overlapping quadrilaterals (normal (nx, ny) from ``one``
     towards ``two``), as dyn4j's clipping manifold: the edge of either most perpendicular to

@@ -34,7 +34,9 @@ C1, C2, C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872
 C4, C5, C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
 
 
-@njit(inline="always")
+# Called, not inlined by Numba: LLVM inlines it all the same, and the lane passes call it 16
+# times in one function, where Numba's inlining and its four selects cost seconds of compiling.
+@njit
 def sincos(x):
     """(cos x, sin x)."""
     n = (x * TWO_OVER_PI + _ROUND) - _ROUND

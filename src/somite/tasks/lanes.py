@@ -198,18 +198,20 @@ def advance_group(batch, group, n):
     :func:`somite.sim.physics.advance` does for each (a robot alone: that function, as eight
     lanes for one robot cost 1.7x its time)."""
     params = batch.params
-    if group.count == 1:
-        state = _lane(batch, group.running[0])
-        ph.advance(state.robot, state.ground, state.scratch, state.work.blocks.body_pos,
-                   state.work.blocks.body_vel, params, int(params.substeps))
+    # The lanes first: Numba compiles the callees in this order, and on a cold cache
+    # (tasks.warm) another process is compiling ph.advance meanwhile.
+    if group.count > 1:
+        for i in range(n):
+            state = _lane(batch, group.running[i])
+            ph.turn(state.robot.n_points, state.work.blocks.body_pos, state.scratch.cos,
+                    state.scratch.sin)
+        lanes = InLanes(batch, group, n)
+        for _ in range(int(params.substeps)):
+            physics_step(lanes, params)
         return
-    for i in range(n):
-        state = _lane(batch, group.running[i])
-        ph.turn(state.robot.n_points, state.work.blocks.body_pos, state.scratch.cos,
-                state.scratch.sin)
-    lanes = InLanes(batch, group, n)
-    for _ in range(int(params.substeps)):
-        physics_step(lanes, params)
+    state = _lane(batch, group.running[0])
+    ph.advance(state.robot, state.ground, state.scratch, state.work.blocks.body_pos,
+               state.work.blocks.body_vel, params, int(params.substeps))
 
 
 @njit(inline="always")
@@ -322,6 +324,15 @@ def run_groups(batch: Batch, first, count) -> None:
 
 def run_batch(system, ctrl, params, noise, seeds, n_steps, trace) -> None:
     """Run every robot of the batch into ``trace`` (the CPU backend)."""
+    from .warm import finish_sharing, share_first_compile  # it imports this module
+
     first, count = groups(system)
-    run_groups(Batch(system, ctrl, params, noise, seeds, n_steps, trace,
-                     new_work(system, ctrl, params), lidar_rays(params)), first, count)
+    batch = Batch(system, ctrl, params, noise, seeds, n_steps, trace,
+                  new_work(system, ctrl, params), lidar_rays(params))
+    helper = share_first_compile(batch, first, count)
+    try:
+        run_groups(batch, first, count)
+    except BaseException:
+        finish_sharing(helper, at_once=True)
+        raise
+    finish_sharing(helper)

@@ -14,11 +14,12 @@ import threading
 import time
 from contextlib import contextmanager, nullcontext
 
-COMPILE_SECONDS = 80
+COMPILE_SECONDS = 60
 """About how long the first episode takes to compile the simulation kernels on a cold Numba
-cache, on the 2-core machine of BENCHMARKS.md (later runs load them from disk at once): 77 s
-on 2 idle cores as the CPU seconds of the two processes that share it say (2026-12-07, "The
-first compile on two cores"); longer when other work shares the cores."""
+cache, on the 2-core machine of BENCHMARKS.md (later runs load them from disk at once): about
+45 s in a fresh clone's first `make demo` on 2 idle cores, 53 s as the CPU seconds of the two
+processes that share it say (2026-12-07, "The first compile on two cores"); longer when other
+work shares the cores."""
 
 HEARTBEAT_SECONDS = 15.0
 """Off a terminal, how often a wait says where it is."""

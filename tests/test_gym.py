@@ -4,6 +4,7 @@ with single environments, and an evolved genome run as a policy."""
 
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import sys
@@ -14,6 +15,7 @@ import pytest
 gym = pytest.importorskip("gymnasium")
 
 import somite  # noqa: E402
+from somite.cli import main  # noqa: E402
 from somite.envs.locomotion import LocomotionEnv  # noqa: E402
 from somite.sim.config import CONTROL_HZ  # noqa: E402
 from somite.tasks import stepper  # noqa: E402
@@ -176,7 +178,8 @@ def test_gymnasiums_check_env_passes_past_the_transient(duration):
     assert not infos["_velocity"].any() and (infos["velocity"] == 0).all()
 
 
-def test_an_env_sequence_replays_bit_for_bit_through_table_and_episode():
+def test_an_env_sequence_replays_bit_for_bit_through_table_episode_and_the_cli(
+        tmp_path, capsys):
     # A user's sequence found in the env, its first action not zero (the one the robot never
     # feels: actuation 0 is 0 everywhere, docs/architecture.md "Step 0").
     terrain, seed, duration = "hilly-1-10-3", 77, 5.5
@@ -204,6 +207,16 @@ def test_an_env_sequence_replays_bit_for_bit_through_table_and_episode():
     assert np.array_equal(given.trace.actuation[:, :-1], by_table.trace.actuation[:, :-1])
     assert (given.trace.actuation[0, 0] == 0).all()  # the first action was not in force
     assert np.array_equal(given.trace.actuation[0, 1:-1], actions[1:])
+    # The fifth entry point: the same actions as a CSV file (17 digits: every double exactly).
+    csv = tmp_path / "actions.csv"
+    np.savetxt(csv, actions, delimiter=",", fmt="%.17g")
+    assert main(["simulate", "--actions", str(csv), "--shape", body.shape.grid_string(),
+                 "--terrain", terrain, "--duration", str(duration), "--seed", str(seed),
+                 "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    expected = {k: None if isinstance(v, float) and v != v else v  # JSON's null
+                for k, v in info["outcome"].items()}
+    assert {key: report[key] for key in expected} == expected
 
 
 def test_gymnasiums_env_checker_passes_with_the_render_check():

@@ -4,8 +4,14 @@ from __future__ import annotations
 
 import argparse
 
+import math
+
+import numpy as np
+
+from .._io import read_text
 from ..brain.compile import compile_genome
 from ..brain.control import CONTROLLER_HELP, parse_controller
+from ..brain.controllers import Table
 from ..errors import bad
 from ..experiments.origin import origin_of
 from ..sim.body import Body
@@ -40,8 +46,39 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--genome", default=None,
                         help="simulate this genome (a genome JSON or a run directory): its body "
                         "and controller, and its run's duration and preset unless given")
+    parser.add_argument("--actions", default=None, metavar="FILE.csv",
+                        help="replay these actuations: one row a control step, one column a "
+                        "voxel, comma-separated (row i is actuation i; row 0 is never in force: "
+                        "the actions of a somite/Locomotion-v0 episode replay bit for bit, "
+                        "written with 17 significant digits)")
     add_simulation_options(parser, layered=GENOME_RUN)
     add_options(parser, "backend", "json")
+
+
+def read_actions(path: str) -> np.ndarray:
+    """The (steps, voxels) actuation table of the CSV file ``path``, or a one-line error
+    naming the file, the line and the cell."""
+    rows = []
+    for number, line in enumerate(read_text(path, "actions").splitlines(), start=1):
+        if not line.strip():
+            continue
+        cells = line.split(",")
+        try:
+            row = [float(cell) for cell in cells]
+        except ValueError:
+            raise bad("actions", f"{path}, line {number}", "expected numbers separated by "
+                      "commas") from None
+        if rows and len(row) != len(rows[0]):
+            raise bad("actions", f"{path}, line {number}",
+                      f"has {len(row)} columns, the first row {len(rows[0])}")
+        wrong = [v for v in row if not (math.isfinite(v) and -1.0 <= v <= 1.0)]
+        if wrong:
+            raise bad("actions", f"{path}, line {number}",
+                      f"actuation must be finite and in [-1, 1], not {wrong[0]!r}")
+        rows.append(row)
+    if not rows:
+        raise bad("actions", path, "has no rows")
+    return np.array(rows, dtype=np.float64)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -56,6 +93,15 @@ def run(args: argparse.Namespace) -> int:
     else:
         body = Body.build(option(args, "shape"), option(args, "sensors"))
         controller = parse_controller(args.controller or "sine")
+    if args.actions is not None:
+        for name in ("controller", "genome"):
+            if getattr(args, name) is not None:
+                raise bad(name, getattr(args, name), "--actions are the controller; drop one")
+        table = read_actions(args.actions)
+        if table.shape[1] != body.shape.n_voxels:
+            raise bad("actions", args.actions, f"has {table.shape[1]} columns, the body "
+                      f"{body.shape.n_voxels} voxels")
+        controller = Table(table)
     terrain = parse_terrain(args.terrain)
     config = simulation_config(args, origin)
     if not args.json and origin is not None and origin.source:
@@ -67,7 +113,9 @@ def run(args: argparse.Namespace) -> int:
     report = {
         "shape": body.shape.grid_string(),
         "terrain": terrain.name,
-        "controller": args.genome if args.genome is not None else args.controller or "sine",
+        "controller": (args.genome if args.genome is not None else
+                       f"actions {args.actions}" if args.actions is not None else
+                       args.controller or "sine"),
         "duration": config.duration,
         "seed": args.seed,
         **outcome.to_dict(),

@@ -312,9 +312,10 @@ def test_a_folder_of_a_builtin_made_before_its_experiments_were_reordered_resume
 
 # -- running on Dask ----------------------------------------------------------------------------
 
-def _run(*args, **kwargs) -> subprocess.CompletedProcess:
-    return subprocess.run([*SOMITE, *args], capture_output=True, text=True, timeout=900,
-                          **kwargs)
+def _campaign_run(capsys, *args: str) -> None:
+    """``somite campaign run ARGS --quiet`` in this process; it must succeed."""
+    capsys.readouterr()
+    assert main(["campaign", "run", *args, "--quiet"]) == 0, capsys.readouterr().err
 
 
 def _logs(directory: Path) -> dict[str, list[dict]]:
@@ -367,93 +368,10 @@ def test_smoke_writes_every_task_folder(smoke_run, capsys):
     assert f"{len(doc['tasks'])} done, 0 running, 0 partial, 0 queued" in out
 
 
-def test_a_finished_campaign_resumes_to_nothing(smoke_run):
+def test_a_finished_campaign_resumes_to_nothing(smoke_run, capsys):
     before = {p: p.stat().st_mtime_ns for p in smoke_run.rglob("*") if p.is_file()}
-    result = _run("campaign", "run", "--resume", "--out", str(smoke_run), "--quiet")
-    assert result.returncode == 0, result.stderr
+    _campaign_run(capsys, "--resume", "--out", str(smoke_run))
     assert {p: p.stat().st_mtime_ns for p in smoke_run.rglob("*") if p.is_file()} == before
-
-
-def test_a_campaign_grown_from_its_rq1_runs_ends_as_one_run_from_scratch(smoke_run, tmp_path):
-    """The way ``paper:3`` grows from ``paper-rq1``'s folder, at the smoke budget: a folder
-    holding only the finished RQ1 and ablation runs, resumed as the whole campaign, keeps
-    those runs untouched and ends with the same files as the campaign run from scratch."""
-    doc = json.loads((smoke_run / "campaign.json").read_text())
-    kept = [t for t in doc["tasks"] if t["experiment"] in ("rq1", "ablation")]
-    assert 0 < len(kept) < len(doc["tasks"])
-    grown = tmp_path / "grown"
-    for task in kept:
-        shutil.copytree(smoke_run / task["path"], grown / task["path"])
-    part = {**doc, "tasks": kept,
-            "experiments": {k: v for k, v in doc["experiments"].items() if k in ("rq1", "ablation")}}
-    (grown / "campaign.json").write_text(json.dumps(part))
-    before = {p: p.stat().st_mtime_ns for p in grown.rglob("*") if p.is_file()}
-    result = _run("campaign", "run", "smoke", "--resume", "--out", str(grown), "--workers", "2",
-                  "--threads", "1", "--quiet")
-    assert result.returncode == 0, result.stderr
-    assert json.loads((grown / "campaign.json").read_text())["tasks"] == doc["tasks"]
-    assert all(p.stat().st_mtime_ns == t for p, t in before.items()
-               if p.name != "campaign.json")
-    assert _logs(grown) == _logs(smoke_run)
-
-
-def _free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return sock.getsockname()[1]
-
-
-def _wait(predicate, timeout: float = 600.0, every: float = 0.05):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(every)
-    raise AssertionError("timed out waiting")
-
-
-def test_a_scheduler_and_workers_started_by_hand_give_the_same_logs(smoke_run, tmp_path):
-    port = _free_port()
-    address = f"tcp://127.0.0.1:{port}"
-    dask = [sys.executable, "-m", "dask"]
-    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
-    processes = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port",
-                                   str(port), "--no-dashboard"], **quiet)]
-    try:
-        processes += [subprocess.Popen([*dask, "worker", address, "--nthreads", "1",
-                                        "--no-dashboard"], cwd=tmp_path, **quiet)
-                      for _ in range(2)]
-        out = tmp_path / "smoke"
-        result = _run("campaign", "run", "smoke", "--out", str(out), "--scheduler", address,
-                      "--quiet")
-        assert result.returncode == 0, result.stderr
-    finally:
-        for process in processes[::-1]:
-            process.terminate()
-        for process in processes:
-            process.wait(timeout=30)
-    assert _logs(out) == _logs(smoke_run)
-
-
-def _done(directory: Path) -> int:
-    return len(list(directory.glob("*/*/done.json")))
-
-
-def test_a_killed_campaign_resumes_to_the_same_logs(smoke_run, tmp_path):
-    out = tmp_path / "smoke"
-    process = subprocess.Popen([*SOMITE, "campaign", "run", "smoke", "--out", str(out),
-                                "--workers", "2", "--quiet"],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    _wait(lambda: _done(out) >= 8 or process.poll() is not None)
-    process.send_signal(signal.SIGKILL)
-    process.wait()
-    total = len(json.loads((out / "campaign.json").read_text())["tasks"])
-    assert _done(out) < total  # killed mid-way
-    result = _run("campaign", "run", "--resume", "--out", str(out), "--quiet")
-    assert result.returncode == 0, result.stderr
-    assert _done(out) == total
-    assert _logs(out) == _logs(smoke_run)
 
 
 def test_a_retried_task_leaves_no_temporary_file_of_its_killed_attempt(smoke_run, tmp_path):
@@ -481,6 +399,44 @@ def test_a_retried_task_leaves_no_temporary_file_of_its_killed_attempt(smoke_run
     assert _logs(folder) == _logs(smoke_run / task["path"]) | {"notes.tmp": "mine"}
 
 
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def _wait(predicate, timeout: float = 600.0, every: float = 0.05):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(every)
+    raise AssertionError("timed out waiting")
+
+
+def test_a_scheduler_and_workers_started_by_hand_give_the_same_logs(smoke_run, tmp_path,
+                                                                    capsys):
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    dask = [sys.executable, "-m", "dask"]
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    processes = [subprocess.Popen([*dask, "scheduler", "--host", "127.0.0.1", "--port",
+                                   str(port), "--no-dashboard"], **quiet)]
+    try:
+        processes += [subprocess.Popen([*dask, "worker", address, "--nthreads", "1",
+                                        "--no-dashboard"], cwd=tmp_path, **quiet)
+                      for _ in range(2)]
+        out = tmp_path / "smoke"
+        _campaign_run(capsys, "smoke", "--out", str(out), "--scheduler", address)
+    finally:
+        for process in processes[::-1]:
+            process.terminate()
+        for process in processes:
+            process.wait(timeout=30)
+    assert _logs(out) == _logs(smoke_run)
+
+
 LONG_RUN = """
 [defaults]
 generations = 30
@@ -493,81 +449,6 @@ kind = "evolve"
 shapes = ["worm"]
 seeds = [7]
 """
-
-
-TWO_EXPERIMENTS = """
-[defaults]
-generations = 2
-population = 4
-duration = 1.0
-validate_every = 2
-[experiments.first]
-kind = "evolve"
-shapes = ["worm"]
-seeds = [0, 1]
-[experiments.later]
-kind = "evolve"
-shapes = ["worm"]
-seeds = [0]
-"""
-
-
-def test_a_resumed_campaign_finishes_its_begun_run_before_it_starts_new_ones(tmp_path):
-    """On one worker, the run of the last experiment that had begun finishes before the
-    campaign's first runs start (Dask hands a task to an idle worker as it is submitted, so
-    priority alone would not do it)."""
-    spec = tmp_path / "two.toml"
-    spec.write_text(TWO_EXPERIMENTS)
-    out = tmp_path / "campaign"
-    for args in (["campaign", "run", str(spec)], ["campaign", "run", "--resume"]):
-        result = _run(*args, "--out", str(out), "--workers", "1", "--threads", "1", "--quiet")
-        assert result.returncode == 0, result.stderr
-        if args[-1] != "--resume":  # the later run begun, the first ones never started
-            for seed in (0, 1):
-                shutil.rmtree(out / "first" / f"worm-s{seed}")
-            (out / "later" / "worm-s0" / "done.json").unlink()
-    finished = {run: (out / run / "done.json").stat().st_mtime_ns
-                for run in ("first/worm-s0", "first/worm-s1", "later/worm-s0")}
-    assert sorted(finished, key=finished.get) == ["later/worm-s0", "first/worm-s0",
-                                                  "first/worm-s1"]
-
-
-ONE_LONG_RUN_AND_SHORT_ONES = """
-[defaults]
-generations = 1
-population = 4
-duration = 1.0
-validate_every = 1
-[experiments.long]
-kind = "evolve"
-shapes = ["worm"]
-seeds = [0]
-options = { generations = 16, duration = 4.0 }
-[experiments.short]
-kind = "evolve"
-shapes = ["worm"]
-seeds = [0, 1, 2, 3]
-"""
-
-
-def test_runs_start_in_the_campaigns_order_on_whichever_worker_frees_up(tmp_path):
-    """Two workers, one long run and four short ones: the short runs start one after another,
-    seed by seed, on the worker the long run leaves free (handed to Dask all at once, each
-    would wait in one worker's queue, some behind the long run, while later seeds ran)."""
-    spec = tmp_path / "order.toml"
-    spec.write_text(ONE_LONG_RUN_AND_SHORT_ONES)
-    out = tmp_path / "campaign"
-    result = _run("campaign", "run", str(spec), "--out", str(out), "--workers", "2",
-                  "--threads", "1", "--quiet")
-    assert result.returncode == 0, result.stderr
-
-    def when(run, name):
-        return (out / run / name).stat().st_mtime_ns
-
-    short = [f"short/worm-s{seed}" for seed in range(4)]
-    started = sorted(short, key=lambda run: when(run, "config.json"))
-    assert started == short
-    assert when(short[-1], "done.json") < when("long/worm-s0", "done.json")
 
 
 def test_a_killed_worker_is_replaced_and_its_run_resumes(tmp_path):
@@ -609,3 +490,134 @@ def test_a_killed_worker_is_replaced_and_its_run_resumes(tmp_path):
     resumed = _logs(run)
     assert resumed["log.csv"] == direct["log.csv"]
     assert resumed["bests.jsonl"] == direct["bests.jsonl"]
+
+
+# -- on one cluster shared by the tests below ----------------------------------------------------
+# A LocalCluster costs seconds of CPU to start, and seconds more for its workers to load the
+# kernels: the tests that need a cluster, not one of their own, share one (started last in the
+# module, so that it idles through no other test). The smoke campaign, a killed worker and the
+# Ctrl-C test of test_user_campaigns.py start theirs as `campaign run` does.
+
+@pytest.fixture(scope="module")
+def cluster() -> str:
+    """The scheduler address of a LocalCluster as ``campaign run`` starts one: 2 worker
+    processes of 1 thread."""
+    from somite.campaigns.executor import connect
+
+    with connect(None, workers=2, threads=1) as connection:
+        yield connection.cluster.scheduler_address
+
+
+def test_a_campaign_grown_from_its_rq1_runs_ends_as_one_run_from_scratch(smoke_run, cluster,
+                                                                          tmp_path, capsys):
+    """The way ``paper:3`` grows from ``paper-rq1``'s folder, at the smoke budget: a folder
+    holding only the finished RQ1 and ablation runs, resumed as the whole campaign, keeps
+    those runs untouched and ends with the same files as the campaign run from scratch."""
+    doc = json.loads((smoke_run / "campaign.json").read_text())
+    kept = [t for t in doc["tasks"] if t["experiment"] in ("rq1", "ablation")]
+    assert 0 < len(kept) < len(doc["tasks"])
+    grown = tmp_path / "grown"
+    for task in kept:
+        shutil.copytree(smoke_run / task["path"], grown / task["path"])
+    part = {**doc, "tasks": kept,
+            "experiments": {k: v for k, v in doc["experiments"].items() if k in ("rq1", "ablation")}}
+    (grown / "campaign.json").write_text(json.dumps(part))
+    before = {p: p.stat().st_mtime_ns for p in grown.rglob("*") if p.is_file()}
+    _campaign_run(capsys, "smoke", "--resume", "--out", str(grown), "--scheduler", cluster)
+    assert json.loads((grown / "campaign.json").read_text())["tasks"] == doc["tasks"]
+    assert all(p.stat().st_mtime_ns == t for p, t in before.items()
+               if p.name != "campaign.json")
+    assert _logs(grown) == _logs(smoke_run)
+
+
+def _done(directory: Path) -> int:
+    return len(list(directory.glob("*/*/done.json")))
+
+
+def test_a_killed_campaign_resumes_to_the_same_logs(smoke_run, cluster, tmp_path, capsys):
+    out = tmp_path / "smoke"
+    process = subprocess.Popen([*SOMITE, "campaign", "run", "smoke", "--out", str(out),
+                                "--workers", "2", "--quiet"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    _wait(lambda: _done(out) >= 8 or process.poll() is not None)
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    total = len(json.loads((out / "campaign.json").read_text())["tasks"])
+    assert _done(out) < total  # killed mid-way
+    _campaign_run(capsys, "--resume", "--out", str(out), "--scheduler", cluster)
+    assert _done(out) == total
+    assert _logs(out) == _logs(smoke_run)
+
+
+TWO_EXPERIMENTS = """
+[defaults]
+generations = 2
+population = 4
+duration = 1.0
+validate_every = 2
+[experiments.first]
+kind = "evolve"
+shapes = ["worm"]
+seeds = [0, 1]
+[experiments.later]
+kind = "evolve"
+shapes = ["worm"]
+seeds = [0]
+"""
+
+
+def test_a_resumed_campaign_finishes_its_begun_run_before_it_starts_new_ones(cluster, tmp_path,
+                                                                             capsys):
+    """On one worker, the run of the last experiment that had begun finishes before the
+    campaign's first runs start (Dask hands a task to an idle worker as it is submitted, so
+    priority alone would not do it)."""
+    spec = tmp_path / "two.toml"
+    spec.write_text(TWO_EXPERIMENTS)
+    out = tmp_path / "campaign"
+    _campaign_run(capsys, str(spec), "--out", str(out), "--scheduler", cluster)
+    # The later run begun, the first ones never started; resumed on a cluster of its own.
+    for seed in (0, 1):
+        shutil.rmtree(out / "first" / f"worm-s{seed}")
+    (out / "later" / "worm-s0" / "done.json").unlink()
+    _campaign_run(capsys, "--resume", "--out", str(out), "--workers", "1", "--threads", "1")
+    finished = {run: (out / run / "done.json").stat().st_mtime_ns
+                for run in ("first/worm-s0", "first/worm-s1", "later/worm-s0")}
+    assert sorted(finished, key=finished.get) == ["later/worm-s0", "first/worm-s0",
+                                                  "first/worm-s1"]
+
+
+ONE_LONG_RUN_AND_SHORT_ONES = """
+[defaults]
+generations = 1
+population = 4
+duration = 1.0
+validate_every = 1
+[experiments.long]
+kind = "evolve"
+shapes = ["worm"]
+seeds = [0]
+options = { generations = 16, duration = 4.0 }
+[experiments.short]
+kind = "evolve"
+shapes = ["worm"]
+seeds = [0, 1, 2, 3]
+"""
+
+
+def test_runs_start_in_the_campaigns_order_on_whichever_worker_frees_up(cluster, tmp_path,
+                                                                         capsys):
+    """Two workers, one long run and four short ones: the short runs start one after another,
+    seed by seed, on the worker the long run leaves free (handed to Dask all at once, each
+    would wait in one worker's queue, some behind the long run, while later seeds ran)."""
+    spec = tmp_path / "order.toml"
+    spec.write_text(ONE_LONG_RUN_AND_SHORT_ONES)
+    out = tmp_path / "campaign"
+    _campaign_run(capsys, str(spec), "--out", str(out), "--scheduler", cluster)
+
+    def when(run, name):
+        return (out / run / name).stat().st_mtime_ns
+
+    short = [f"short/worm-s{seed}" for seed in range(4)]
+    started = sorted(short, key=lambda run: when(run, "config.json"))
+    assert started == short
+    assert when(short[-1], "done.json") < when("long/worm-s0", "done.json")

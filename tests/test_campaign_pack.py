@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -147,10 +145,8 @@ def test_a_campaign_packed_part_way_and_finished_elsewhere_is_the_uninterrupted_
             assert after[name] == data, name
 
     # Finished there by `campaign run --resume`, as a user would.
-    result = subprocess.run([sys.executable, "-m", "somite.cli", "campaign", "run", "--resume",
-                             "--out", str(moved), "--workers", "1", "--quiet"],
-                            capture_output=True, text=True, timeout=900)
-    assert result.returncode == 0, result.stderr
+    assert main(["campaign", "run", "--resume", "--out", str(moved), "--workers", "1",
+                 "--quiet"]) == 0, capsys.readouterr().err
     finished, whole = _files(moved), _files(uninterrupted)
     assert set(finished) == set(whole)
     thinned = 0

@@ -66,7 +66,8 @@ def assert_same_run(run: Path, whole: Path, *more: str) -> None:
         assert (run / name).read_bytes() == (whole / name).read_bytes(), name
 
 
-def test_second_process_is_refused_and_a_dead_holders_lock_is_taken_over(tmp_path, whole):
+def test_second_process_is_refused_and_a_dead_holders_lock_is_taken_over(tmp_path, whole,
+                                                                            capsys):
     run = tmp_path / "run"
     first = start(run)
     try:
@@ -76,12 +77,12 @@ def test_second_process_is_refused_and_a_dead_holders_lock_is_taken_over(tmp_pat
         os.kill(first.pid, signal.SIGSTOP)
         before = {p.name: p.read_bytes() for p in run.iterdir() if p.name != LOCK_NAME}
         for extra in ((), ("--resume",), ("--force",)):
-            second = subprocess.run([sys.executable, "-m", "somite.cli", *ARGS, "--out",
-                                     str(run), *extra], capture_output=True, text=True)
-            assert second.returncode == 2, extra
-            assert second.stderr.count("\n") == 1, second.stderr
-            assert f"in use by process {first.pid} on {socket.gethostname()}" in second.stderr
-            assert "started 20" in second.stderr
+            capsys.readouterr()
+            assert main([*ARGS, "--out", str(run), *extra]) == 2, extra
+            err = capsys.readouterr().err  # of this process, a second one beside the first
+            assert err.count("\n") == 1, err
+            assert f"in use by process {first.pid} on {socket.gethostname()}" in err
+            assert "started 20" in err
             assert {p.name: p.read_bytes() for p in run.iterdir()
                     if p.name != LOCK_NAME} == before
     finally:
@@ -105,41 +106,67 @@ def test_lock_in_one_process(tmp_path):
     assert not (tmp_path / LOCK_NAME).exists()
 
 
-KILLER = """
-import builtins, os, signal, sys
-from somite.cli import main
-import somite.experiments.runner as runner
-mode, kill_at, count = sys.argv[1], int(sys.argv[2]), [0]
-def due():
-    count[0] += 1
-    return count[0] == kill_at
-real_replace, real_open = os.replace, builtins.open
-def replace(source, target):
-    if due():  # the temporary file is written, the rename not done
-        os.kill(os.getpid(), signal.SIGKILL)
-    real_replace(source, target)
-class Torn:
-    def __init__(self, handle):
-        self.handle = handle
-    def __enter__(self):
-        return self
-    def __exit__(self, *exc):
-        self.handle.close()
-    def write(self, text):
-        if due():  # half a line written, then death
-            self.handle.write(text[: len(text) // 2])
-            self.handle.flush()
+def die_at_write(mode: str, kill_at: int) -> None:
+    """Make this process SIGKILL itself at its ``kill_at``-th write: for ``replace``, an atomic
+    write with its temporary file written and the rename not done; for ``append``, an append
+    to log.csv or bests.jsonl half-way through its line."""
+    import somite.experiments.runner as runner
+
+    count = [0]
+
+    def due() -> bool:
+        count[0] += 1
+        return count[0] == kill_at
+
+    real_replace, real_open = os.replace, open
+
+    def replace(source, target):
+        if due():
             os.kill(os.getpid(), signal.SIGKILL)
-        return self.handle.write(text)
-def append_open(path, mode="r", *args, **kwargs):
-    handle = real_open(path, mode, *args, **kwargs)
-    return Torn(handle) if "a" in mode else handle
-if mode == "replace":
-    os.replace = replace
-else:
-    runner.open = append_open  # the run's appends to log.csv and bests.jsonl
-sys.exit(main(sys.argv[3:]))
-"""
+        real_replace(source, target)
+
+    class Torn:
+        def __init__(self, handle):
+            self.handle = handle
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.handle.close()
+
+        def write(self, text):
+            if due():
+                self.handle.write(text[: len(text) // 2])
+                self.handle.flush()
+                os.kill(os.getpid(), signal.SIGKILL)
+            return self.handle.write(text)
+
+    def append_open(path, mode="r", *args, **kwargs):
+        handle = real_open(path, mode, *args, **kwargs)
+        return Torn(handle) if "a" in mode else handle
+
+    if mode == "replace":
+        os.replace = replace
+    else:
+        runner.open = append_open  # the run's appends to log.csv and bests.jsonl
+
+
+def killed_run(mode: str, kill_at: int, argv: list[str]) -> int:
+    """``somite ARGV`` in a child process that dies at its ``kill_at``-th write
+    (:func:`die_at_write`); its exit code, or minus the signal that ended it. The child is
+    forked, not a new interpreter: it starts with this process's imports and loaded kernels
+    (a new one paid 1-2 s for them, some 40 times in this module)."""
+    pid = os.fork()
+    if pid == 0:  # the child: never back into pytest, whatever happens
+        code = 70
+        try:
+            die_at_write(mode, kill_at)
+            code = main(argv)
+        finally:
+            os._exit(code)
+    return os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1])
+
 
 SHORT = ["evolve", "--shape", "worm", "--population", "6", "--generations", "3",
          "--duration", "2", "--seed", "2", "--checkpoint-every", "2", "--quiet"]
@@ -157,11 +184,10 @@ def kill_at_each_write(tmp_path: Path, mode: str, args: list[str], *more: str) -
     while True:
         kill_at += 1
         run = tmp_path / f"killed-{kill_at}"
-        child = subprocess.run([sys.executable, "-c", KILLER, mode, str(kill_at), *args,
-                                "--out", str(run)])
-        if child.returncode == 0:
+        returncode = killed_run(mode, kill_at, [*args, "--out", str(run)])
+        if returncode == 0:
             return kill_at
-        assert child.returncode == -signal.SIGKILL
+        assert returncode == -signal.SIGKILL
         if mode == "replace":
             assert any(p.name.endswith(".tmp") for p in run.iterdir())
         assert main([*args, "--out", str(run), "--resume"]) == 0, kill_at
@@ -309,8 +335,7 @@ def test_a_killed_reoptimize_force_leaves_no_old_transfer_csv(tmp_path):
     assert main(args) == 0
     assert (tmp_path / "re" / "transfer.csv").is_file()
     assert "transfer.csv" in json.loads((tmp_path / "re" / "manifest.json").read_text())["files"]
-    child = subprocess.run([sys.executable, "-c", KILLER, "replace", "1", *args, "--force"])
-    assert child.returncode == -signal.SIGKILL
+    assert killed_run("replace", 1, [*args, "--force"]) == -signal.SIGKILL
     assert not (tmp_path / "re" / "transfer.csv").exists()
     assert main([*args, "--resume"]) == 0
     assert (tmp_path / "re" / "transfer.csv").is_file()

@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 
 from somite.campaigns.kinds import EXPERIMENT_KINDS
-from somite.report import build, markdown, sections
+from somite.report import markdown, sections
 from somite.report.load import Loaded
-from somite.report.section import Section
+from somite.report.section import Section, add_entries
 
 SMOKE = Path(__file__).resolve().parent / "data" / "report-smoke"
 
@@ -56,10 +56,10 @@ def test_a_new_kind_shows_its_section_after_the_others(monkeypatch):
 
 def test_two_sections_with_one_entry_are_refused():
     report = {"figure3": {}}
-    build._add(report, {"bake": 1})
+    add_entries(report, {"bake": 1})
     assert list(report) == ["figure3", "bake"]
     with pytest.raises(ValueError, match="figure3"):
-        build._add(report, {"figure3": 2})
+        add_entries(report, {"figure3": 2})
 
 
 def test_what_a_new_kind_reads_is_kept_under_its_own_name():

@@ -32,7 +32,7 @@ from .caveats import caveats
 from .load import load, shape_name
 from .markdown import render_html, render_markdown
 from .rerun import FRESH_COUNT, FRESH_NOISE_SEED, rerun_finals
-from .section import Inputs
+from .section import Inputs, add_entries
 from .sections import SECTIONS, in_order
 from .staging import staged_report
 from .timelapse import draw_strips
@@ -93,7 +93,7 @@ def _write_report(campaign, loaded, new: Path, validation: int, timelapse: bool,
     stage("drawing the figures")
     inputs = Inputs(campaign, loaded, reruns, folder)
     for section in in_order():
-        _add(report, section.build(inputs))
+        add_entries(report, section.build(inputs))
     report["validation"] = _validation(rows, validation, inputs)
     report["transfer"] = read_transfer(campaign.root, {
         t.id: (t.experiment, evolution.task_shape(t, loaded)) for t in campaign.tasks
@@ -176,15 +176,6 @@ def _under_way(loaded) -> dict:
     return {task: {"generation": int(run.log["generation"][-1]),
                    "generations": run.config.get("generations")}
             for task, run in loaded.under_way.items()}
-
-
-def _add(report: dict, entries: dict) -> None:
-    """A kind's section's entries, after the report's; one that would replace an entry is
-    refused (two sections with one key)."""
-    taken = sorted(set(entries) & set(report))
-    if taken:
-        raise ValueError(f"report.json's entries {taken} made by two sections")
-    report.update(entries)
 
 
 def _validation(rows: list[dict], n_terrains: int, inputs: Inputs) -> dict:

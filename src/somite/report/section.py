@@ -47,6 +47,15 @@ class Section:
     render: Callable[[dict], list[str]]
 
 
+def add_entries(report: dict, entries: dict) -> None:
+    """A section's entries, after the report's; one that would replace an entry is refused
+    (two sections with one key)."""
+    taken = sorted(set(entries) & set(report))
+    if taken:
+        raise ValueError(f"report.json's entries {taken} made by two sections")
+    report.update(entries)
+
+
 def joined(*parts: Section) -> Section:
     """One kind's section made of ``parts``: their entries and their lines, in order (the
     evolve experiments' figures, then the edge lengths that some of them declare). An entry
@@ -55,14 +64,10 @@ def joined(*parts: Section) -> Section:
     def build(inputs: Inputs) -> dict:
         out: dict = {}
         for part in parts:
-            entries = part.build(inputs)
-            taken = sorted(set(entries) & set(out))
-            if taken:
-                raise ValueError(f"report.json's entries {taken} made by two sections")
-            out.update(entries)
+            add_entries(out, part.build(inputs))
         return out
 
     return Section(build, lambda report: [line for part in parts for line in part.render(report)])
 
 
-__all__ = ["Inputs", "Section", "joined"]
+__all__ = ["Inputs", "Section", "add_entries", "joined"]

@@ -48,7 +48,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "and controller, and its run's duration and preset unless given")
     parser.add_argument("--actions", default=None, metavar="FILE.csv",
                         help="replay these actuations: one row a control step, one column a "
-                        "voxel, comma-separated (row i is actuation i; row 0 is never in force: "
+                        "voxel, comma-separated (row i is actuation i, from row 0 again past the last; the "
+                        "first row 0 is never in force: "
                         "the actions of a somite/Locomotion-v0 episode replay bit for bit, "
                         "written with 17 significant digits)")
     add_simulation_options(parser, layered=GENOME_RUN)

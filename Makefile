@@ -28,7 +28,7 @@ demo: $(STAMP)
 # --dist loadfile: a file's tests run on one worker, so that module fixtures (a campaign and its
 # report, ~40 s each) are built once, not once per worker. --durations: the slowest stay visible.
 test: $(TEST_STAMP)
-	@echo "running the test suite on every core (about 7 minutes on 2 idle cores, 16-21 beside other work; the first tests compile the kernels)"
+	@echo "running the test suite on every core (5-7 minutes on 2 idle cores, 16-21 beside other work; the first tests compile the kernels)"
 	$(BIN)/python -m pytest -q -n auto --dist loadfile --durations=25
 
 $(DOCS_STAMP): $(STAMP)

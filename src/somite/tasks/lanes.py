@@ -62,11 +62,6 @@ def _lane(batch, b):
                         batch.rays)
 
 
-@njit
-def _group(batch, first, count, spent):
-    return start_group(batch.system, batch.work.physics, first, count, spent)
-
-
 @njit(inline="always")
 def _control_step(k, batch, group, n, given):
     """Control step ``k`` of the robots ``group.running[:n]``; ``given`` (B, V) replaces their
@@ -139,7 +134,7 @@ def new_groups(batch, first, count, spent):
     argument."""
     out = List()
     for g in range(first.shape[0]):
-        out.append(_group(batch, first[g], count[g], spent))
+        out.append(start_group(batch.system, batch.work.physics, first[g], count[g], spent))
     return out
 
 
@@ -160,7 +155,7 @@ def run_group(batch, first, count, spent):
         start(b, system, batch.params, batch.trace,
               robot_state(system, b, batch.params,
                           work_row(work, b, system, batch.ctrl, batch.params), batch.rays))
-    control_steps(batch, _group(batch, first, count, spent))
+    control_steps(batch, start_group(system, work.physics, first, count, spent))
     for b in range(first, first + count):
         finish(b, batch.trace, filled_state(
             system, b, work_row(work, b, system, batch.ctrl, batch.params), batch.rays))

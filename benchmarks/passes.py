@@ -30,7 +30,8 @@ from somite.sim.config import SimConfig, pack_params
 from somite.sim.sensors import lidar_rays, noise_table
 from somite.sim.system import compile_system
 from somite.sim.terrain import hilly
-from somite.tasks.episode import episode, new_work, robot_state, robot_work
+from somite.tasks.episode import episode, robot_state, robot_work
+from somite.tasks.work import new_work
 from somite.tasks.lanes import PARTS, Batch, groups, run_group
 from somite.tasks.locomotion import compile_controllers, run
 

@@ -33,7 +33,7 @@ from somite.sim import joint_lanes
 from somite.sim.body import Body
 from somite.sim.config import SimConfig, pack_params
 from somite.sim.physics import J_IMPULSE, J_MASS, solve_springs
-from somite.sim.robot import new_scratch, robot_view
+from somite.sim.robot import robot_body, robot_view
 from somite.sim.system import compile_system
 from somite.sim.terrain import parse_terrain
 
@@ -149,7 +149,7 @@ def main() -> dict:
     def scratches(work):
         out = []
         for r in range(ROBOTS):
-            scratch = new_scratch(robot)
+            scratch = robot_body(robot)
             scratch.spring[:] = work[r]
             out.append(scratch)
         return tuple(out)
@@ -214,7 +214,7 @@ def main() -> dict:
         def merged_state(width=width, groups=groups, merged=merged):
             out = []
             for g in range(groups):
-                scratch = new_scratch(merged)
+                scratch = robot_body(merged)
                 scratch.spring[:] = work0[g * width:(g + 1) * width].transpose(1, 0, 2).reshape(
                     width * n_springs, 10)
                 out.append(scratch)

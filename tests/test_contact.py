@@ -1,7 +1,7 @@
 """Unit tests of the body model and the sequential-impulse kernels on small hand-made cases.
 
 The robots, terrains and scratch arrays come from the real builders (compile_system,
-robot_view, ground_view, new_scratch), so that the kernels see the types they see in an
+robot_view, ground_view, robot_body), so that the kernels see the types they see in an
 episode; positions and velocities are then set by hand. Expected results are worked out here
 from the geometry and the physics (the original's spring ranges, counts of joints, where two
 squares touch, momentum balances), not read back from the kernels.
@@ -25,7 +25,7 @@ from somite.sim.physics import (
     set_rest_lengths,
     spring_length,
 )
-from somite.sim.robot import new_scratch, robot_view
+from somite.sim.robot import robot_body, robot_view
 from somite.sim.system import (
     SPRING_CENTRAL,
     SPRING_CROSS,
@@ -42,11 +42,11 @@ FLAT = Terrain("flat", np.array([0.0, 10.0, 1990.0, 2000.0]), np.array([100.0, 0
 
 
 def kit(ground_terrain=FLAT, shape="1", **options):
-    """Robot, scratch and params of one ``shape`` body on ``ground_terrain``."""
+    """Robot, body state and params of one ``shape`` body on ``ground_terrain``."""
     params = pack_params(quiet(**options))
     system = compile_system([Body.build(shape, "none")], [ground_terrain])
     robot = robot_view(system, 0, params)
-    return robot, new_scratch(robot), params
+    return robot, robot_body(robot), params
 
 
 def square(cx, cy, angle=0.0, half=HALF_BLOCK) -> np.ndarray:

@@ -12,7 +12,7 @@ from somite.sim import joint_lanes as jl
 from somite.sim import physics as ph
 from somite.sim.body import Body
 from somite.sim.config import SimConfig, pack_params
-from somite.sim.robot import new_scratch, robot_view
+from somite.sim.robot import robot_body, robot_view
 from somite.sim.system import compile_system
 from somite.sim.terrain import parse_terrain
 
@@ -71,7 +71,7 @@ def test_lanes_give_each_robot_the_one_robot_passes_numbers(shape, seed):
         np.zeros((robot.n_welds, ph.N_WELD_COLUMNS, width)), *_orders(robot))
     alone = []
     for g in range(width):
-        scratch = new_scratch(robot)
+        scratch = robot_body(robot)
         scratch.rest[:] = rest[g]
         scratch.cos[:] = np.cos(pos[g, :, 2])
         scratch.sin[:] = np.sin(pos[g, :, 2])
@@ -141,7 +141,7 @@ def test_lanes_move_and_position_passes_match_the_one_robot_passes(shape, seed):
     flags[6, jl.DONE] = True
     alone = []
     for g in range(width):
-        scratch = new_scratch(robot)
+        scratch = robot_body(robot)
         own_pos, own_vel = pos[g].copy(), vel[g].copy()
         jl.take(lanes, g, own_pos, own_vel, scratch.cos, scratch.sin)
         ph.positions(robot, scratch, own_pos, own_vel, params)

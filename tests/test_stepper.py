@@ -13,21 +13,12 @@ from somite.brain.compile import compile_genome
 from somite.brain.controllers import Zero
 from somite.sim.body import Body
 from somite.sim.config import pack_params, preset
-from somite.sim.robot import Scratch
+from somite.sim.state import BODY_FIELDS, BODY_PARTS, BodyState
 from somite.sim.sensors import lidar_rays, noise_table
 from somite.sim.system import compile_system
 from somite.sim.terrain import hilly, parse_terrain
-from somite.tasks.episode import (
-    WORK_FIELDS,
-    WORK_PARTS,
-    Work,
-    new_trace,
-    new_work,
-    robot_work,
-    work_row,
-    work_shape,
-    work_sizes,
-)
+from somite.tasks.episode import new_trace, robot_work, work_row
+from somite.tasks.work import WORK_PARTS, Work, new_work, work_shape, work_sizes
 from somite.tasks.lanes import GROUP_SIZE, NOT_TIMED, Batch, groups, new_groups, run_groups
 from somite.tasks.locomotion import compile_controllers, simulate_batch
 from somite.tasks.stepper import Episode, start_batch, step_batch, step_in_groups
@@ -130,12 +121,13 @@ def test_the_work_arrays_follow_their_field_table():
     episode = Episode(genomes, "flat", config)
     system, ctrl, params = episode.system, episode.controllers, pack_params(config)
     assert Work._fields == tuple(WORK_PARTS)
-    assert set(Scratch._fields) <= set(WORK_FIELDS)
+    assert BodyState._fields == tuple(BODY_FIELDS) == tuple(WORK_PARTS["physics"])
+    assert [name for fields in BODY_PARTS.values() for name in fields] == list(BODY_FIELDS)
     batch = new_work(system, ctrl, params)
     padded = work_sizes(system, ctrl, params)
     for b in range(len(bodies)):
         sizes = work_sizes(system, ctrl, params, b)
-        row, own = work_row(batch, b, system, ctrl), robot_work(system, ctrl, params, b)
+        row, own = work_row(batch, b, system, ctrl, params), robot_work(system, ctrl, params, b)
         for part, fields in WORK_PARTS.items():
             if part != "tally":
                 assert getattr(row, part)._fields == tuple(fields), part
@@ -148,6 +140,7 @@ def test_the_work_arrays_follow_their_field_table():
                 assert got_own.shape == expected, name
                 assert got_batch.shape == (2, *work_shape(name, padded)), name
                 assert got_own.dtype == got_row.dtype == dtype, name
+                assert np.shares_memory(got_row, got_batch), name  # a view, not a copy
     assert work_sizes(system, ctrl, params, 0)["V"] != work_sizes(system, ctrl, params, 1)["V"]
 
 

@@ -1,7 +1,7 @@
 """A group's robots as the lanes of vector instructions: their state stored robots innermost,
 and the passes over it.
 
-Every robot of a group (:mod:`somite.tasks.lanes`) has the same body, so a joint joins the same
+Every robot of a group (:mod:`somite.sim.group`) has the same body, so a joint joins the same
 two blocks in each, and only the state differs. Here the state is stored robots innermost:
 ``pos`` and ``vel`` (P, 3, LANES), ``cos`` and ``sin`` (P, LANES), a joint's work row (columns,
 LANES); one joint's values of the LANES robots are adjacent in memory. The passes over it (the

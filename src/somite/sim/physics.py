@@ -1,8 +1,9 @@
 """Physics of one robot: the original's rigid blocks, soft springs, rope limits and welds,
 solved with sequential impulses, as dyn4j 3.3 (the engine under 2D-VSR-Sim) solves them.
 
-Every function here works on one robot's arrays and is called from the episode of
-:mod:`somite.tasks.episode`; the CPU kernel (:mod:`somite.tasks.lanes`) runs the joints' passes
+Every function here works on one robot's arrays (its build, :class:`~somite.sim.robot.Robot`, and
+its :class:`~somite.sim.state.BodyState`) and is called from the episode of
+:mod:`somite.tasks.episode`; the CPU kernel (:mod:`somite.sim.group`) runs the joints' passes
 and the move on a group's robots as vector lanes (:mod:`somite.sim.joint_lanes`) and the
 contacts' passes on each robot's lane. A joint's arithmetic lives in one function of values
 (``spring_terms``, ``spring_impulse``, ``pushed``, ``rope_fixed``, ``weld_fixed``, ``moved``,
@@ -39,7 +40,8 @@ from .step import step as physics_step
 from .trig import sincos
 
 if TYPE_CHECKING:
-    from .robot import Ground, Robot, Scratch
+    from .robot import Ground, Robot
+    from .state import BodyState
 
 HALF_BLOCK = BLOCK_SIDE / 2
 BLOCK_REACH = HALF_BLOCK * math.sqrt(2.0)
@@ -68,7 +70,7 @@ GROUND_DEPTH = 50.0
 """[m] The ground under each terrain segment is a quadrilateral this deep below the segment's
 lower end (the original's: below the terrain's lowest point; only its sides' height differs)."""
 
-# Columns of a spring's work row (Scratch.spring).
+# Columns of a spring's work row (BodyState.spring).
 J_RAX, J_RAY, J_RBX, J_RBY, J_NX, J_NY, J_MASS, J_GAMMA, J_BIAS, J_IMPULSE = range(10)
 N_SPRING_COLUMNS = 10
 # Columns of a rope's work row: direction, effective mass, impulse, active (1) or not (0).
@@ -257,11 +259,11 @@ def push_pair(vel, a, b, r, j, m):
 
 
 @njit(inline="always")
-def spring_setup(s, a, b, robot, scratch, pos, vel, terms):
+def spring_setup(s, a, b, robot, state, pos, vel, terms):
     """Set up spring s (ends a, b) for this step (:func:`spring_terms`; ``terms``: dt, omega,
     damping ratio) and apply last step's impulse."""
-    anchor, rest, work, cos, sin = robot.anchor, scratch.rest, scratch.spring, scratch.cos, \
-        scratch.sin
+    anchor, rest, work, cos, sin = robot.anchor, state.rest, state.spring, state.cos, \
+        state.sin
     inv_mass, inv_inertia = robot.inv_mass, robot.inv_inertia
     dt, omega, damping_ratio = terms
     ima, iia, imb, iib = inv_mass[a], inv_inertia[a], inv_mass[b], inv_inertia[b]
@@ -301,20 +303,20 @@ def spring_solve(s, a, b, work, vel, inv_mass, inv_inertia):
 
 
 @njit(inline="always")
-def start_springs(robot, scratch, pos, vel, params):
+def start_springs(robot, state, pos, vel, params):
     """Set up the soft springs for this step (:func:`spring_setup`)."""
     ends = robot.ends
     omega = 2.0 * math.pi * params.spring_hz
     for s in range(robot.n_springs):
-        spring_setup(s, ends[s, 0], ends[s, 1], robot, scratch, pos, vel,
+        spring_setup(s, ends[s, 0], ends[s, 1], robot, state, pos, vel,
                      (params.dt, omega, params.damping_ratio))
 
 
 @njit(inline="always")
-def solve_springs(robot, scratch, vel):
+def solve_springs(robot, state, vel):
     ends = robot.ends
     for s in range(robot.n_springs):
-        spring_solve(s, ends[s, 0], ends[s, 1], scratch.spring, vel, robot.inv_mass,
+        spring_solve(s, ends[s, 0], ends[s, 1], state.spring, vel, robot.inv_mass,
                      robot.inv_inertia)
 
 
@@ -382,19 +384,19 @@ def rope_fix(a, b, pos, inv_mass, inv_inertia) -> bool:
 
 
 @njit(inline="always")
-def start_ropes(robot, scratch, pos, vel):
+def start_ropes(robot, state, pos, vel):
     """Set up the rope limits for this step (:func:`rope_setup`)."""
     ends = robot.rope_ends
     for r in range(robot.n_ropes):
-        rope_setup(r, ends[r, 0], ends[r, 1], scratch.rope, pos, vel, robot.inv_mass,
+        rope_setup(r, ends[r, 0], ends[r, 1], state.rope, pos, vel, robot.inv_mass,
                    robot.inv_inertia)
 
 
 @njit(inline="always")
-def solve_ropes(robot, scratch, vel):
+def solve_ropes(robot, state, vel):
     ends = robot.rope_ends
     for r in range(robot.n_ropes):
-        rope_solve(r, ends[r, 0], ends[r, 1], scratch.rope, vel, robot.inv_mass,
+        rope_solve(r, ends[r, 0], ends[r, 1], state.rope, vel, robot.inv_mass,
                    robot.inv_inertia)
 
 
@@ -486,9 +488,9 @@ def weld_push(state, a, b, rb, j, masses):
 
 
 @njit(inline="always")
-def weld_setup(q, a, b, robot, scratch, vel):
-    anchor, work = robot.weld_anchor, scratch.weld
-    rbx, rby = turned(b, anchor[q, 0], anchor[q, 1], scratch.cos, scratch.sin)
+def weld_setup(q, a, b, robot, state, vel):
+    anchor, work = robot.weld_anchor, state.weld
+    rbx, rby = turned(b, anchor[q, 0], anchor[q, 1], state.cos, state.sin)
     work[q, W_RBX] = rbx
     work[q, W_RBY] = rby
     inv_mass, inv_inertia = robot.inv_mass, robot.inv_inertia
@@ -545,17 +547,17 @@ def weld_fix(q, a, b, robot, pos, cos, sin) -> bool:
 
 
 @njit(inline="always")
-def start_welds(robot, scratch, vel):
+def start_welds(robot, state, vel):
     ends = robot.weld_ends
     for q in range(robot.n_welds):
-        weld_setup(q, ends[q, 0], ends[q, 1], robot, scratch, vel)
+        weld_setup(q, ends[q, 0], ends[q, 1], robot, state, vel)
 
 
 @njit(inline="always")
-def solve_welds(robot, scratch, vel):
+def solve_welds(robot, state, vel):
     ends = robot.weld_ends
     for q in range(robot.n_welds):
-        weld_solve(q, ends[q, 0], ends[q, 1], scratch.weld, vel, robot.inv_mass,
+        weld_solve(q, ends[q, 0], ends[q, 1], state.weld, vel, robot.inv_mass,
                    robot.inv_inertia)
 
 
@@ -571,17 +573,17 @@ def fix_welds(robot, pos, cos, sin) -> bool:
 
 
 @uncounted
-def start_contacts(robot, scratch, pos, vel, params):
+def start_contacts(robot, state, pos, vel, params):
     """Set up this step's contacts (found at the end of the last step) and apply their
     warm-start impulses.
 
     This and :func:`find_contacts`, called once a step, are compiled once and called rather
     than inlined like the other passes: inlined into both :func:`advance` and the grouped
     kernel, they made the first compile of both 1.8x as long (BENCHMARKS.md)."""
-    c = scratch.contacts
+    c = state.contacts
     inv_mass = robot.inv_mass
     inv_inertia = robot.inv_inertia
-    n = scratch.counts[0]
+    n = state.counts[0]
     for k in range(n):
         a = int(c[k, C_A])
         b = int(c[k, C_B])
@@ -716,13 +718,13 @@ def solve_pair(c, k, vel, inv_mass, inv_inertia):
 
 
 @njit(inline="always")
-def solve_contacts(robot, scratch, vel):
+def solve_contacts(robot, state, vel):
     """One velocity pass over the contacts, pair by pair: friction first (within mu times the
     normal impulse), then the normal impulses."""
-    c = scratch.contacts
+    c = state.contacts
     inv_mass = robot.inv_mass
     inv_inertia = robot.inv_inertia
-    n = scratch.counts[0]
+    n = state.counts[0]
     k = 0
     while k < n:
         count = int(c[k, C_COUNT])
@@ -752,15 +754,15 @@ def solve_contacts(robot, scratch, vel):
 
 
 @njit(inline="always")
-def fix_contacts(robot, scratch, pos, cos, sin) -> bool:
+def fix_contacts(robot, state, pos, cos, sin) -> bool:
     """One position pass over the contacts: each pushes its bodies apart by a share
     (BAUMGARTE) of its penetration beyond LINEAR_SLOP; whether none is deeper than three
     times LINEAR_SLOP. ``pos``, ``cos``, ``sin``: the bodies' positions and rotations."""
-    c = scratch.contacts
+    c = state.contacts
     inv_mass = robot.inv_mass
     inv_inertia = robot.inv_inertia
     deepest = 0.0
-    for k in range(scratch.counts[0]):
+    for k in range(state.counts[0]):
         if c[k, C_LIVE] == 0.0:
             continue
         a = int(c[k, C_A])
@@ -1005,7 +1007,7 @@ def manifold(one, two, nx, ny, clipped):
 
 
 @njit(inline="always")
-def add_contacts(robot, scratch, pos, a, b, partner, polygons, mu) -> int:
+def add_contacts(robot, state, pos, a, b, partner, polygons, mu) -> int:
     """The contacts of body a (polygon ``two`` of ``polygons`` = (one, two)) with body b
     (polygon ``one``; b < 0: the ground, ``partner`` its segment, else ``partner`` = b) into the
     contact table, warm-started from last step's point of the same feature; returns how
@@ -1014,17 +1016,17 @@ def add_contacts(robot, scratch, pos, a, b, partner, polygons, mu) -> int:
     overlap, nx, ny = deepest_axis(one, two)
     if overlap <= 0.0:
         return 0
-    clipped = scratch.clipped
+    clipped = state.clipped
     points, flipped, ref, inc, snx, sny = manifold(one, two, nx, ny, clipped)
     if points == 0:
         return 0
-    c = scratch.contacts
-    old = scratch.previous
-    n = scratch.counts[0]
+    c = state.contacts
+    old = state.previous
+    n = state.counts[0]
     if n + points > c.shape[0]:
         return 0  # the table is full (robot.contact_capacity): this pair waits a step
-    cos = scratch.cos
-    sin = scratch.sin
+    cos = state.cos
+    sin = state.sin
     for q in range(points):
         k = n + q
         px = clipped[q, 0]
@@ -1056,40 +1058,40 @@ def add_contacts(robot, scratch, pos, a, b, partner, polygons, mu) -> int:
         c[k, C_MU] = mu
         c[k, C_JN] = 0.0
         c[k, C_JT] = 0.0
-        for i in range(scratch.counts[1]):
+        for i in range(state.counts[1]):
             if (old[i, C_FEATURE] == feature and old[i, C_A] == a and old[i, C_B] == b
                     and old[i, C_LIVE] != 0.0):
                 c[k, C_JN] = old[i, C_JN]
                 c[k, C_JT] = old[i, C_JT]
                 break
-    scratch.counts[0] = n + points
+    state.counts[0] = n + points
     return points
 
 
 @uncounted
-def find_contacts(robot, ground, scratch, pos, params):
+def find_contacts(robot, ground, state, pos, params):
     """The contacts for the next step (dyn4j finds them after each step): each block against
     the ground under every terrain segment its bounding box reaches, and the blocks that share
-    no joint against each other. ``scratch.contact`` says which blocks touch the ground."""
-    c = scratch.contacts
-    old = scratch.previous
-    n_old = scratch.counts[0]
+    no joint against each other. ``state.contact`` says which blocks touch the ground."""
+    c = state.contacts
+    old = state.previous
+    n_old = state.counts[0]
     for k in range(n_old):
         for j in range(N_CONTACT_COLUMNS):
             old[k, j] = c[k, j]
-    scratch.counts[1] = n_old
-    scratch.counts[0] = 0
+    state.counts[1] = n_old
+    state.counts[0] = 0
     xs = ground.xs
     ys = ground.ys
     n = ground.n
-    one = scratch.polygon[0]
-    two = scratch.polygon[1]
-    cos = scratch.cos
-    sin = scratch.sin
-    segment = scratch.segment
+    one = state.polygon[0]
+    two = state.polygon[1]
+    cos = state.cos
+    sin = state.sin
+    segment = state.segment
     left = n
     for p in range(robot.n_points):
-        scratch.contact[p] = False
+        state.contact[p] = False
         block_polygon(p, pos, cos, sin, two)
         lo_x = hi_x = two[0, 0]
         lo_y = two[0, 1]
@@ -1103,9 +1105,9 @@ def find_contacts(robot, ground, scratch, pos, params):
         while i < n - 1 and xs[i] < hi_x:
             if lo_y < max(ys[i], ys[i + 1]) and not above_segment(xs, ys, i, two):
                 ground_polygon(xs, ys, i, one)
-                if add_contacts(robot, scratch, pos, p, -1, i, (one, two),
+                if add_contacts(robot, state, pos, p, -1, i, (one, two),
                                 params.friction) > 0:
-                    scratch.contact[p] = True
+                    state.contact[p] = True
             i += 1
     segment[robot.n_points] = left
     for q in range(robot.n_pairs):
@@ -1117,7 +1119,7 @@ def find_contacts(robot, ground, scratch, pos, params):
             continue
         block_polygon(a, pos, cos, sin, one)
         block_polygon(b, pos, cos, sin, two)
-        add_contacts(robot, scratch, pos, b, a, a, (one, two), params.block_friction)
+        add_contacts(robot, state, pos, b, a, a, (one, two), params.block_friction)
 
 
 @njit(inline="always")
@@ -1151,21 +1153,22 @@ def moved(p0, p1, p2, v0, v1, v2, dt):
 
 
 @njit(inline="always")
-def positions(robot, scratch, pos, vel, params):
+def positions(robot, state, pos, vel, params):
     """Move the bodies with their velocities (:func:`moved`) and turn them."""
     for p in range(robot.n_points):
         pos[p, 0], pos[p, 1], pos[p, 2], vel[p, 0], vel[p, 1], vel[p, 2] = moved(
             pos[p, 0], pos[p, 1], pos[p, 2], vel[p, 0], vel[p, 1], vel[p, 2], params.dt)
-        scratch.cos[p], scratch.sin[p] = sincos(pos[p, 2])
+        state.cos[p], state.sin[p] = sincos(pos[p, 2])
 
 
 class Alone(NamedTuple):
     """One robot as a solver of :func:`somite.sim.step.step`: its arrays, as every function
-    here takes them (``pos``, ``vel``: its bodies' state (P, 3))."""
+    here takes them (``pos``, ``vel``: its bodies' state (P, 3), ``state.body_pos`` and
+    ``state.body_vel`` on the CPU)."""
 
     robot: Robot
     ground: Ground
-    scratch: Scratch
+    state: BodyState
     pos: np.ndarray
     vel: np.ndarray
 
@@ -1174,64 +1177,65 @@ class Alone(NamedTuple):
 @njit(inline="always")
 def _begin(solver, params):
     velocities(solver.robot, solver.vel, params)
-    start_contacts(solver.robot, solver.scratch, solver.pos, solver.vel, params)
+    start_contacts(solver.robot, solver.state, solver.pos, solver.vel, params)
 
 
 @implements(order.start_joints, Alone, on_device=True)
 @njit(inline="always")
 def _start_joints(solver, params):
-    start_springs(solver.robot, solver.scratch, solver.pos, solver.vel, params)
-    start_ropes(solver.robot, solver.scratch, solver.pos, solver.vel)
-    start_welds(solver.robot, solver.scratch, solver.vel)
+    start_springs(solver.robot, solver.state, solver.pos, solver.vel, params)
+    start_ropes(solver.robot, solver.state, solver.pos, solver.vel)
+    start_welds(solver.robot, solver.state, solver.vel)
 
 
 @implements(order.solve_joints, Alone, on_device=True)
 @njit(inline="always")
 def _solve_joints(solver, params):
-    solve_springs(solver.robot, solver.scratch, solver.vel)
-    solve_ropes(solver.robot, solver.scratch, solver.vel)
-    solve_welds(solver.robot, solver.scratch, solver.vel)
+    solve_springs(solver.robot, solver.state, solver.vel)
+    solve_ropes(solver.robot, solver.state, solver.vel)
+    solve_welds(solver.robot, solver.state, solver.vel)
 
 
 @implements(order.solve_contacts, Alone, on_device=True)
 @njit(inline="always")
 def _solve_contacts(solver, params):
-    solve_contacts(solver.robot, solver.scratch, solver.vel)
+    solve_contacts(solver.robot, solver.state, solver.vel)
 
 
 @implements(order.move, Alone, on_device=True)
 @njit(inline="always")
 def _move(solver, params):
-    positions(solver.robot, solver.scratch, solver.pos, solver.vel, params)
+    positions(solver.robot, solver.state, solver.pos, solver.vel, params)
 
 
 @implements(order.fix_positions, Alone, on_device=True)
 @njit(inline="always")
 def _fix_positions(solver, params):
-    contacts_held = fix_contacts(solver.robot, solver.scratch, solver.pos, solver.scratch.cos,
-                                 solver.scratch.sin)
+    contacts_held = fix_contacts(solver.robot, solver.state, solver.pos, solver.state.cos,
+                                 solver.state.sin)
     ropes_held = fix_ropes(solver.robot, solver.pos)
-    welds_held = fix_welds(solver.robot, solver.pos, solver.scratch.cos, solver.scratch.sin)
+    welds_held = fix_welds(solver.robot, solver.pos, solver.state.cos, solver.state.sin)
     return contacts_held and ropes_held and welds_held
 
 
 @implements(order.end, Alone, on_device=True)
 @njit(inline="always")
 def _end(solver, params):
-    find_contacts(solver.robot, solver.ground, solver.scratch, solver.pos, params)
+    find_contacts(solver.robot, solver.ground, solver.state, solver.pos, params)
 
 
 @uncounted
-def advance(robot, ground, scratch, pos, vel, params, substeps):
-    """One control step of physics: ``substeps`` steps (:func:`somite.sim.step.step`) under the
-    rest lengths of ``scratch.rest``, from any state (the bodies' rotations are taken afresh).
+def advance(robot, ground, state, params, substeps):
+    """One control step of physics: ``substeps`` steps (:func:`somite.sim.step.step`) of the
+    robot's :class:`~somite.sim.state.BodyState` ``state`` under its rest lengths
+    (``state.rest``), from any state (the bodies' rotations are taken afresh).
 
     Compiled without Numba's reference counting (``_jit.uncounted``: nothing here allocates), as
     every field read from the per-robot tuples would otherwise cost an atomic increment and
     decrement on each step.
     """
-    turn(robot.n_points, pos, scratch.cos, scratch.sin)
-    alone = Alone(robot, ground, scratch, pos, vel)
+    turn(robot.n_points, state.body_pos, state.cos, state.sin)
+    alone = Alone(robot, ground, state, state.body_pos, state.body_vel)
     for _ in range(substeps):
         physics_step(alone, params)
 
@@ -1247,7 +1251,7 @@ def corner_state(robot, pos, vel, cos, sin, corner_pos, corner_vel):
     """Each block's outer corner (the voxel's corner it carries) and the block's velocity:
     what the sensors, the recording and the diagnostics see (the original's voxel velocity is
     the mean of its blocks' velocities). ``cos``, ``sin``: the bodies' rotations, as the
-    steps leave them in :class:`Scratch`."""
+    steps leave them in :class:`BodyState`."""
     offset = robot.corner_offset
     for p in range(robot.n_points):
         rx, ry = turned(p, offset[p, 0], offset[p, 1], cos, sin)

@@ -1,8 +1,9 @@
 """One robot's share of a batch, as the physics kernels take it.
 
 The batch arrays of :class:`~somite.sim.system.System` are padded; these NamedTuples hold one
-robot's views of them (trimmed to its own counts), the terrain it runs on, and the scratch
-arrays of its episode, so that a kernel takes three arguments instead of twenty.
+robot's views of them (trimmed to its own counts) and the terrain it runs on, so that a kernel
+takes a few arguments instead of twenty; what a step changes is its
+:class:`~somite.sim.state.BodyState`.
 """
 
 from __future__ import annotations
@@ -12,7 +13,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .._jit import njit
-from .physics import N_CONTACT_COLUMNS, N_ROPE_COLUMNS, N_SPRING_COLUMNS, N_WELD_COLUMNS
+from .state import BodyState, contact_capacity
+from .state_views import new_body
 
 
 class Robot(NamedTuple):
@@ -48,34 +50,6 @@ class Ground(NamedTuple):
     ys: np.ndarray  # (K,) [m]
     nx: np.ndarray  # (K,) unit normal of segment [k, k + 1], up out of the ground
     ny: np.ndarray  # (K,)
-
-
-class Scratch(NamedTuple):
-    """Working arrays of one robot's episode (physics: the work rows' columns)."""
-
-    rest: np.ndarray  # (S,) [m] rest lengths under the current actuation
-    cos: np.ndarray  # (P,) of each body's angle
-    sin: np.ndarray  # (P,)
-    spring: np.ndarray  # (S, N_SPRING_COLUMNS) this step's set-up and accumulated impulse
-    rope: np.ndarray  # (Y, N_ROPE_COLUMNS)
-    weld: np.ndarray  # (W, N_WELD_COLUMNS)
-    contacts: np.ndarray  # (contact_capacity, N_CONTACT_COLUMNS) this step's contact points
-    previous: np.ndarray  # (contact_capacity, N_CONTACT_COLUMNS) last step's, to warm-start
-    counts: np.ndarray  # (2,) int64 rows of contacts, of previous
-    polygon: np.ndarray  # (2, 4, 4) two quadrilaterals under test
-    clipped: np.ndarray  # (2, 4) their clipped contact points
-    contact: np.ndarray  # (P,) bool: the block touches the ground
-    segment: np.ndarray  # (P + 1,) int64 terrain segment under each block, then under the
-    # robot's left end
-
-
-@njit
-def contact_capacity(n_points: int, n_pairs: int) -> int:
-    """Room for a robot's contact points: two per block and terrain segment under it, for up
-    to three segments a block (hilly segments are at least 1 m long, a block 1.7 m wide at
-    most), and two per colliding pair. Steppy terrains' short risers can bring more; the
-    contacts that find the table full wait for the next step."""
-    return 6 * n_points + 2 * n_pairs
 
 
 @njit
@@ -125,35 +99,33 @@ def ground_view(system, b) -> Ground:
 
 
 @njit
-def new_scratch(robot) -> Scratch:
-    """A :class:`Scratch` of its own for ``robot``, set to the start of an episode
-    (:func:`reset_scratch`)."""
-    capacity = contact_capacity(robot.n_points, robot.n_pairs)
-    scratch = Scratch(
-        np.empty(robot.n_springs), np.empty(robot.n_points), np.empty(robot.n_points),
-        np.empty((robot.n_springs, N_SPRING_COLUMNS)), np.empty((robot.n_ropes, N_ROPE_COLUMNS)),
-        np.empty((robot.n_welds, N_WELD_COLUMNS)), np.empty((capacity, N_CONTACT_COLUMNS)),
-        np.empty((capacity, N_CONTACT_COLUMNS)), np.empty(2, dtype=np.int64),
-        np.empty((2, 4, 4)), np.empty((2, 4)), np.empty(robot.n_points, dtype=np.bool_),
-        np.empty(robot.n_points + 1, dtype=np.int64),
-    )
-    reset_scratch(robot, scratch)
-    return scratch
+def robot_body(robot) -> BodyState:
+    """A :class:`~somite.sim.state.BodyState` of its own for ``robot``, at the start of an
+    episode (:func:`reset_body`) and holding the robot's inverse masses; its bodies' state is
+    left to set."""
+    state = new_body((robot.n_points, robot.n_springs, robot.n_ropes, robot.n_welds,
+                      contact_capacity(robot.n_points, robot.n_pairs)))
+    for p in range(robot.n_points):
+        state.inv_mass[p] = robot.inv_mass[p]
+        state.inv_inertia[p] = robot.inv_inertia[p]
+    reset_body(robot, state)
+    return state
 
 
 @njit
-def reset_scratch(robot, scratch) -> None:
-    """Set ``scratch`` to the start of an episode: no impulses, bodies unrotated, no contact
-    (the rest lengths are set by the episode before its first step)."""
-    rest = scratch.rest
-    spring = scratch.spring
-    rope = scratch.rope
-    weld = scratch.weld
-    counts = scratch.counts
-    cos = scratch.cos
-    sin = scratch.sin
-    contact = scratch.contact
-    segment = scratch.segment
+def reset_body(robot, state) -> None:
+    """Set ``state`` (a :class:`~somite.sim.state.BodyState`) to the start of an episode: no
+    impulses, bodies unrotated, no contact (the rest lengths are set by the episode before its
+    first step, the bodies' positions by its start)."""
+    rest = state.rest
+    spring = state.spring
+    rope = state.rope
+    weld = state.weld
+    counts = state.counts
+    cos = state.cos
+    sin = state.sin
+    contact = state.contact
+    segment = state.segment
     for s in range(robot.n_springs):
         rest[s] = 0.0
         for j in range(spring.shape[1]):

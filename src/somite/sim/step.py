@@ -9,7 +9,7 @@ works on, and each phase is carried out by the solver's own kind:
 
 - :class:`somite.sim.physics.Alone`: one robot, its arrays (the CUDA kernel, the stepper, a
   group of one);
-- :class:`somite.tasks.lanes.InLanes`: a group of robots with the same body, the joints in the
+- :class:`somite.sim.group.InLanes`: a group of robots with the same body, the joints in the
   lanes of vector instructions, the contacts robot by robot on their lanes.
 
 A kind says how it does a phase with :func:`implements`; Numba picks the implementation by the

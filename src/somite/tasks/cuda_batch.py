@@ -4,7 +4,7 @@ The kernel runs :func:`~somite.tasks.episode.episode`, the very function that ea
 runs for its robot, compiled as a CUDA device function by :func:`somite._jit.device_twin`
 (with everything it calls), so the two backends cannot drift apart. What a CPU thread
 allocates for its robot comes here from per-batch device arrays: the
-:class:`~somite.tasks.episode.Work` of :func:`~somite.tasks.episode.new_work`, robot ``b``'s
+:class:`~somite.tasks.work.Work` of :func:`~somite.tasks.work.new_work`, robot ``b``'s
 row sliced by :func:`~somite.tasks.episode.work_row`.
 
 The batch's inputs and work arrays are stored robot-fastest in GPU memory
@@ -21,7 +21,8 @@ from numba import config, cuda
 
 from .._jit import device_twin
 from ..sim.sensors import lidar_rays
-from .episode import Batch, Controllers, Trace, episode, new_work, robot_state, work_row
+from .episode import Batch, Controllers, Trace, episode, robot_state, work_row
+from .work import new_work
 
 THREADS_PER_BLOCK = 64
 """Robots per thread block: small, since a thread's robot keeps many registers busy."""
@@ -86,8 +87,8 @@ def _run_batch(batch):
     if b >= batch.seeds.shape[0]:
         return
     system, params = batch.system, batch.params
-    state = _robot_state(system, b, params, _work_row(batch.work, b, system, batch.ctrl),
-                         batch.rays)
+    state = _robot_state(system, b, params,
+                         _work_row(batch.work, b, system, batch.ctrl, params), batch.rays)
     _episode(b, batch, state)
 
 

@@ -3,7 +3,7 @@
 :class:`Episode` runs the batch's robots as the compiled loop does: started by
 :func:`~somite.tasks.episode.start`, then each control step over the batch's groups of robots
 of one body (:func:`~somite.tasks.lanes.step_group`: the loop's own step, their joints as
-vector lanes), over state it keeps between calls (a :class:`~somite.tasks.episode.Work` of
+vector lanes), over state it keeps between calls (a :class:`~somite.tasks.work.Work` of
 batch arrays and the groups' lanes), so an episode stepped to its end leaves the trace that
 :func:`~somite.tasks.lanes.run_batch` leaves, bit for bit. Each call runs one compiled
 function a thread, over that thread's share of the groups. :func:`step_batch` steps each robot
@@ -39,12 +39,12 @@ from .episode import (
     control_step,
     finish,
     new_trace,
-    new_work,
     robot_state,
     start,
     work_row,
 )
 from .lanes import NOT_TIMED, groups, new_groups, step_groups
+from .work import new_work
 from .locomotion import compile_batch
 
 
@@ -53,7 +53,8 @@ def _start_robots(batch, first, stride):
     system, trace = batch.system, batch.trace
     for b in range(first, system.n_points.shape[0], stride):
         state = robot_state(system, b, batch.params,
-                            work_row(batch.work, b, system, batch.ctrl), batch.rays)
+                            work_row(batch.work, b, system, batch.ctrl, batch.params),
+                            batch.rays)
         start(b, system, batch.params, trace, state)
         finish(b, trace, state)
 
@@ -65,7 +66,8 @@ def _step_robots(k, batch, given, first, stride):
     for b in range(first, system.n_points.shape[0], stride):
         if trace.status[b] == STATUS_OK:
             state = robot_state(system, b, batch.params,
-                                work_row(batch.work, b, system, batch.ctrl), batch.rays)
+                                work_row(batch.work, b, system, batch.ctrl, batch.params),
+                                batch.rays)
             if given.shape[0] > 0:
                 # What was in force over step k is what the trace shows at step k - 1, which
                 # decided it.
@@ -310,7 +312,7 @@ class Episode:
     @property
     def positions(self) -> np.ndarray:
         """(B, P, 2) the voxel corners' positions [m] (a robot's first ``n_points`` rows)."""
-        return _read_only(self._work.blocks.pos)
+        return _read_only(self._work.physics.pos)
 
     @property
     def com(self) -> np.ndarray:

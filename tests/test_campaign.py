@@ -621,3 +621,25 @@ def test_runs_start_in_the_campaigns_order_on_whichever_worker_frees_up(cluster,
     started = sorted(short, key=lambda run: when(run, "config.json"))
     assert started == short
     assert when(short[-1], "done.json") < when("long/worm-s0", "done.json")
+
+
+def _closing_filters(dask_worker) -> int:
+    import logging
+
+    from somite.campaigns.executor import _Open
+
+    handlers = logging.getLogger("distributed").handlers + logging.getLogger().handlers
+    return sum(isinstance(f, _Open) for h in handlers for f in h.filters)
+
+
+def test_a_restarted_local_worker_is_quiet_while_closing_too(cluster):
+    """What a local worker logs once it is closing is not shown (a Ctrl-C on a loaded machine
+    printed three tracebacks), on the workers a nanny starts again as on the first ones."""
+    from distributed import Client
+
+    with Client(cluster) as client:
+        before = client.run(_closing_filters)
+        client.restart()
+        after = client.run(_closing_filters)
+    assert len(after) == 2
+    assert all(n > 0 for n in before.values()) and all(n > 0 for n in after.values())

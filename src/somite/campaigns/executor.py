@@ -142,7 +142,7 @@ def _client(scheduler: str | None, workers: int):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                silence_logs=logging.ERROR, dashboard_address=address)
     client = Client(cluster)
-    client.run(_quiet_while_closing)
+    client.register_plugin(_quiet_plugin())
     return client, cluster
 
 
@@ -158,6 +158,21 @@ class _Open(logging.Filter):
 
         return self.worker.status not in (Status.closing, Status.closing_gracefully,
                                           Status.closed, Status.failed)
+
+
+def _quiet_plugin():
+    """A worker plugin that applies :func:`_quiet_while_closing` to every worker of the local
+    cluster, those its nannies start again later (a worker killed, or out of memory) too: a
+    one-off ``client.run`` reached only the first ones."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class QuietWhileClosing(WorkerPlugin):
+        name = "somite-quiet-while-closing"
+
+        def setup(self, worker) -> None:
+            _quiet_while_closing(worker)
+
+    return QuietWhileClosing()
 
 
 def _quiet_while_closing(dask_worker) -> None:

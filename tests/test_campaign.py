@@ -295,6 +295,28 @@ def test_the_paper_grows_from_a_paper_rq1_folder_and_starts_with_rq1s_stages(tmp
     assert "paper:N takes a count of seeds" in capsys.readouterr().err
 
 
+def test_lengths_takes_a_count_of_seeds_as_a_campaign_of_its_own(tmp_path):
+    """``lengths:N`` is the edge-length comparison at N seeds (issue 72): its evolve runs of
+    seeds 0-2 are ``lengths``' own, its reassemblies pair each run with the next of N, so a
+    folder of 3 seeds does not grow into it."""
+    from somite.campaigns.directory import document, prepare
+
+    three, four = builtin("lengths"), builtin("lengths:4")
+    tasks3, tasks4 = expand(three), expand(four)
+    assert (len(tasks3), len(tasks4)) == (54, 72)
+
+    def evolve(tasks):
+        return {t["id"]: t["options"] for t in tasks if t["kind"] == "evolve"}
+
+    runs3, runs4 = evolve(tasks3), evolve(tasks4)
+    assert len(runs4) == 24 and all(runs4[task] == options for task, options in runs3.items())
+    assert {t["id"] for t in tasks4 if t["kind"] == "reassemble"} >= {
+        "neutral-homo/worm-s2+s3", "length-delay-homo/biped-s3+s0"}
+    prepare(tmp_path, document(three, expand(three)), resume=False)
+    with pytest.raises(SomiteError, match="not this campaign's"):
+        prepare(tmp_path, document(four, tasks4), resume=True)
+
+
 def test_a_folder_of_a_builtin_made_before_its_experiments_were_reordered_resumes(tmp_path):
     """The paper structure's experiments were reordered (issue 67): a folder written in the
     old order holds the same tasks, so it resumes as it is, in its own order."""

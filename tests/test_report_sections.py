@@ -103,6 +103,19 @@ def test_a_campaign_of_evolve_experiments_alone_shows_no_empty_reassembly_sectio
     assert "figure7" not in text.split("## Figure 3")[0]
 
 
+def test_an_undeclared_table_1_is_shown_not_called_empty():
+    """Table 1 lists every evolve experiment whether or not one declares it (a declaration
+    puts the paper's row beside it): the report must not call it left empty."""
+    report = smoke_report()
+    report["figures"]["missing"] = {"table1": "no evolve experiment declares it",
+                                    "figure10": "no evolve experiment declares it"}
+    head = markdown.render_markdown(report).split("## Table 1")[0]
+    assert "Table 1 shows every evolve experiment, the paper's row beside none (table1: no " \
+           "evolve experiment declares it)." in head
+    assert "left empty: figure10: no evolve experiment declares it." in head
+    assert "table1: no evolve" not in head.split("left empty")[1]
+
+
 def test_figures_by_omega_of_one_group_point_to_figures_3_and_5():
     """paper-rq1 has one omega: Figures 10 and 11 would draw Figure 3's and 5's runs again."""
     report = smoke_report()

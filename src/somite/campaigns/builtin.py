@@ -14,7 +14,8 @@ something early: the stages on RQ1's runs (re-optimised reassembly, homogeneous 
 heterogeneous; module discovery) come before the omega runs, which a campaign starts seed by
 seed. ``lengths`` is beyond the paper (issue 72): the neutral EA beside the
 distance-biased edge addition and the length-dependent delays, ``lengths-smoke`` the same
-at the smoke budget. Every experiment declares the
+at the smoke budget; ``lengths:N`` with N seeds (a campaign of its own: its reassemblies pair
+run i with run i + 1 of N, so a folder of fewer seeds does not grow into it). Every experiment declares the
 figures it feeds (:data:`DECLARED_FIGURES`, :mod:`.figures`). :data:`BUILTINS` lists them all.
 """
 
@@ -183,6 +184,8 @@ BUILTINS: dict[str, Callable[[], dict]] = {
 SEEDED: dict[str, Callable[[int], dict]] = {
     "paper": lambda seeds: structure({**BUDGETS["paper"], "seeds": seeds}),
     "paper-rq1": paper_rq1,
+    **{name: (lambda seeds, budget=budget: edge_length({**budget, "seeds": seeds}))
+       for name, budget in EDGE_LENGTH_BUDGETS.items()},
 }
 """The built-ins that take a count of seeds (``NAME:N``): name -> its content at N seeds."""
 
@@ -194,7 +197,8 @@ beside the 12 runs of RQ1)."""
 
 
 def builtin(name: str) -> Campaign:
-    """The built-in campaign ``name`` (``paper:N``, ``paper-rq1:N``: with N seeds)."""
+    """The built-in campaign ``name`` (``paper:N``, ``paper-rq1:N``, ``lengths:N``: with N
+    seeds)."""
     base, _, seeds = name.partition(":")
     if base not in BUILTINS or (seeds and base not in SEEDED):
         raise bad("campaign", name, f"no such built-in campaign; use one of {list(BUILTINS)} "

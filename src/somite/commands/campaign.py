@@ -23,8 +23,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", required=True, parser_class=type(parser))
     run = sub.add_parser("run", help="run (or --resume) a campaign into a directory")
     run.add_argument("campaign", nargs="?",
-                     help="a built-in campaign (`somite campaign list`; paper:N and paper-rq1:N "
-                     "for N seeds; paper:N grows a paper-rq1 folder with --resume) or a "
+                     help="a built-in campaign (`somite campaign list`; paper:N, paper-rq1:N "
+                     "and lengths:N for N seeds; paper:N grows a paper-rq1 folder with "
+                     "--resume) or a "
                      "campaign TOML file; with --resume it may be left out")
     run.add_argument("--out", required=True, help="campaign directory")
     run.add_argument("--resume", action="store_true",

@@ -65,6 +65,11 @@ def _status(report: dict) -> list[str]:
     return lines + _missing_figures(report)
 
 
+ALWAYS_SHOWN = {"table1": "Table 1 shows every evolve experiment"}
+"""Figures shown whether an experiment declares them or not: a declaration puts the paper's
+numbers beside an experiment's."""
+
+
 def _missing_figures(report: dict) -> list[str]:
     """A line for the figures no experiment of the campaign feeds, and why (report.json's
     ``figures.missing``; an experiment declares them in its ``figures`` table), and one for
@@ -80,6 +85,9 @@ def _missing_figures(report: dict) -> list[str]:
                   "and Figures 3 and 5, a group per experiment and variant, and every "
                   "reassembly in Figure 7, under their own names; none beside the paper's "
                   "numbers.", ""]
+    for name, shown in ALWAYS_SHOWN.items():
+        if name in missing:
+            lines += [f"{shown}, the paper's row beside none ({name}: {missing.pop(name)}).", ""]
     if missing:
         reasons = "; ".join(f"{name}: {why}" for name, why in missing.items())
         lines += [f"Figures no experiment feeds (declared by an experiment's `figures` table "

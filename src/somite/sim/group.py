@@ -132,7 +132,8 @@ def start_group(system, bodies, first, count, spent):
 @njit(inline="always")
 def lane(system, bodies, b):
     """Robot ``b``'s build, terrain and :class:`~somite.sim.state.BodyState` (views of
-    ``bodies``, counted by no one: only in kernels compiled without reference counting)."""
+    ``bodies``). Inlined: the views are its caller's own, which a kernel compiled without
+    reference counting (``advance_group``) then counts no more than its others."""
     body = body_row(bodies, b, body_sizes(system, b))
     return filled_robot(system, b, body.inv_mass, body.inv_inertia), ground_view(system, b), body
 

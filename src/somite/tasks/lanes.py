@@ -13,7 +13,6 @@ benchmark may ask the kernel to time its own parts (:data:`PARTS`, ``benchmarks/
 
 from __future__ import annotations
 
-
 import numpy as np
 from numba.typed import List
 

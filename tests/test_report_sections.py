@@ -185,3 +185,13 @@ def test_figure5_so_far_compares_the_groups_at_the_same_budget():
     text = markdown.render_markdown(report).split("## Figure 5")[1].split("\n## ")[0]
     assert "| worm | 2100 | weights | 1 | ablation/worm-s0 | 4.100 | 2.050 |" in text
     assert "| worm | 2100 | graph | 2 | rq1/worm-s1 | 2.850 | 1.425 |" in text
+
+
+def test_a_figure_of_two_undrawn_images_says_so_once():
+    """Figure 5 has two images (logged and validation v_x): with neither drawn, its section
+    said "no finished task" twice; each figure says it once."""
+    from somite.report.text import NO_TASK
+
+    lines = ["## A", "", NO_TASK, "", NO_TASK, "", "## B", "", NO_TASK, "", "text", NO_TASK, ""]
+    assert markdown._said_once(lines) == ["## A", "", NO_TASK, "", "## B", "", NO_TASK, "",
+                                          "text", NO_TASK, ""]

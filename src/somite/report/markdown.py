@@ -10,7 +10,7 @@ from ..analysis.stats import MIN_GROUP_SIZE
 from ..campaigns.figures import FIGURES as DECLARABLE
 from . import sections
 from .._visible import visible
-from .text import FIGURES, images, median_sd, number, plain, table
+from .text import FIGURES, NO_TASK, images, median_sd, number, plain, table
 from .transfer import NEAR_ZERO
 
 
@@ -19,7 +19,20 @@ def render_markdown(report: dict) -> str:
     kinds = [sections.SECTIONS[kind].render for kind in sections.shown(report)]
     for part in (_head, _status, *kinds, _validation, _transfer, _timelapse):
         lines += part(report)
-    return "\n".join(lines).rstrip() + "\n"
+    return "\n".join(_said_once(lines)).rstrip() + "\n"
+
+
+def _said_once(lines: list[str]) -> list[str]:
+    """``lines`` without a figure's "no finished task" line that repeats the one before it (a
+    figure of two images, neither drawn, said it twice)."""
+    out: list[str] = []
+    last = None  # the last line that is not blank
+    for line in lines:
+        if line == NO_TASK == last or (line == "" and out[-2:] == [NO_TASK, ""]):
+            continue
+        out.append(line)
+        last = line or last
+    return out
 
 
 def _head(report: dict) -> list[str]:

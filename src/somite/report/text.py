@@ -51,10 +51,14 @@ def table(header: list[str], rows: list[list]) -> list[str]:
     return lines + [""]
 
 
+NO_TASK = "*No finished task for this figure.*"
+"""What :func:`images` says of a figure with no image."""
+
+
 def images(files, alt: str) -> list[str]:
     """A figure's PNG shown, its other formats linked; a line saying so when it has none."""
     if not files:
-        return ["*No finished task for this figure.*", ""]
+        return [NO_TASK, ""]
     png = next((f for f in files if f.endswith(".png")), files[0])
     others = ", ".join(f"[{f.rsplit('.', 1)[-1].upper()}]({FIGURES}/{f})" for f in files
                        if f != png)

@@ -12,11 +12,11 @@ ablation runs are ``paper-rq1``'s, so a ``paper-rq1`` folder grows into ``paper:
 (:data:`GROWS_FROM`). ``paper``'s experiments are ordered so that its partial results mean
 something early: the stages on RQ1's runs (re-optimised reassembly, homogeneous then
 heterogeneous; module discovery) come before the omega runs, which a campaign starts seed by
-seed. ``lengths`` is beyond the paper (issue 72): the neutral EA beside the
-distance-biased edge addition and the length-dependent delays, ``lengths-smoke`` the same
-at the smoke budget; ``lengths:N`` with N seeds (a campaign of its own: its reassemblies pair
-run i with run i + 1 of N, so a folder of fewer seeds does not grow into it). Every experiment declares the
-figures it feeds (:data:`DECLARED_FIGURES`, :mod:`.figures`). :data:`BUILTINS` lists them all.
+seed. ``lengths`` is beyond the paper (issue 72): the neutral EA beside the distance-biased edge
+addition and the length-dependent delays, ``lengths-smoke`` the same at the smoke budget;
+``lengths:N`` with N seeds (a campaign of its own: its reassemblies pair run i with run i + 1 of
+N, so a folder of fewer seeds does not grow into it). Every experiment declares the figures it
+feeds (:data:`DECLARED_FIGURES`, :mod:`.figures`). :data:`BUILTINS` lists them all.
 """
 
 from __future__ import annotations

@@ -4,16 +4,15 @@ this one compiles the one-robot step and the rest of the batch kernel.
 Numba compiles a kernel and everything it calls in one thread, and nearly all of the first
 compile is the CPU batch kernel's call tree (BENCHMARKS.md, "The first compile, kernel by
 kernel"). Its kernels are cached one by one, and each compile holds a lock named after its
-kernel (``_jit._one_at_a_time``): a process that reaches a kernel another is compiling waits
-for it and loads it from the cache. So on a cold cache :func:`share_first_compile` starts a
-process that compiles the control step's views of a robot's arrays
+kernel (``_jit._one_at_a_time``): a process that reaches a kernel another is compiling waits for
+it and loads it from the cache. So on a cold cache :func:`share_first_compile` starts a process
+that compiles the control step's views of a robot's arrays
 (:func:`~somite.tasks.episode.uncounted_work_row`) and :func:`~somite.sim.group.advance_group`
-for this batch's types (the lane passes and the group's phases first), while this process compiles the position passes
-(the last the other reaches) and :func:`somite.sim.physics.advance` (a group of one: the
-one-robot step and the contact search, which the group's phases call too), then
-:func:`~somite.tasks.lanes.run_group`, which finds the group's physics in the cache or waits
-for it. The numbers are the same whichever process
-compiled a kernel: it is the same code.
+for this batch's types (the lane passes and the group's phases first), while this process
+compiles the position passes (the last the other reaches) and :func:`somite.sim.physics.advance`
+(a group of one: the one-robot step and the contact search, which the group's phases call too),
+then :func:`~somite.tasks.lanes.run_group`, which finds the group's physics in the cache or
+waits for it. The numbers are the same whichever process compiled a kernel: it is the same code.
 """
 
 from __future__ import annotations

@@ -189,9 +189,13 @@ def test_figure5_so_far_compares_the_groups_at_the_same_budget():
 
 def test_a_figure_of_two_undrawn_images_says_so_once():
     """Figure 5 has two images (logged and validation v_x): with neither drawn, its section
-    said "no finished task" twice; each figure says it once."""
-    from somite.report.text import NO_TASK
+    said "no finished task" twice; each figure says it once, and an image it has is shown."""
+    from somite.report.text import NO_TASK, images_of
 
-    lines = ["## A", "", NO_TASK, "", NO_TASK, "", "## B", "", NO_TASK, "", "text", NO_TASK, ""]
-    assert markdown._said_once(lines) == ["## A", "", NO_TASK, "", "## B", "", NO_TASK, "",
-                                          "text", NO_TASK, ""]
+    assert images_of([([], "logged"), ([], "validation")]) == [NO_TASK, ""]
+    shown = images_of([(["f.png"], "logged"), ([], "validation")])
+    assert shown.count(NO_TASK) == 1 and "![logged](figures/f.png)" in shown
+    report = smoke_report()
+    report["figure5"]["files"] = {"logged": [], "validation": []}
+    figure5 = markdown.render_markdown(report).split("## Figure 5")[1].split("\n## ")[0]
+    assert figure5.count(NO_TASK) == 1

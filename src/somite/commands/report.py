@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..report.markdown import ALWAYS_SHOWN
+from ..report.markdown import left_empty
 from ..report.rerun import FRESH_COUNT
 from ._progress import stages
 from .common import add_options, warn, whole_int
@@ -47,8 +47,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"wrote {args.out}/index.md and report.json: {done} of {total} tasks finished; "
               f"{cache['genomes_simulated']} bests re-run on the validation or fresh terrains, "
               f"{cache['strips_drawn']} time-lapses drawn (the rest from the cache)")
-        missing = {k: why for k, why in report["figures"]["missing"].items()
-                   if k not in ALWAYS_SHOWN}
+        missing = left_empty(report["figures"]["missing"])
         if missing:
             print("left empty, as no experiment feeds them (an experiment's `figures` table "
                   "declares them): " + "; ".join(f"{k} ({why})" for k, why in missing.items()))

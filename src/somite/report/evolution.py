@@ -22,6 +22,7 @@ from .section import Inputs, Section
 from .text import (
     claim,
     images,
+    images_of,
     median_sd,
     number,
     p_noted,
@@ -496,8 +497,8 @@ def _render_boxes(report: dict) -> list[str]:
             lines += ["The paper's own test, one-sided:", ""]
             lines += table(["sample", "alternative", "U", "p (one-sided)"], paper_tests)
         lines += _matched_table(data.get("matched") or {})
-        lines += images(data["files"]["logged"], title + " (logged)")
-        lines += images(data["files"]["validation"], title + " (validation)")
+        lines += images_of([(data["files"]["logged"], title + " (logged)"),
+                            (data["files"]["validation"], title + " (validation)")])
     return lines
 
 

@@ -10,7 +10,7 @@ from ..analysis.stats import MIN_GROUP_SIZE
 from ..campaigns.figures import FIGURES as DECLARABLE
 from . import sections
 from .._visible import visible
-from .text import FIGURES, NO_TASK, images, median_sd, number, plain, table
+from .text import FIGURES, images, median_sd, number, plain, table
 from .transfer import NEAR_ZERO
 
 
@@ -19,20 +19,7 @@ def render_markdown(report: dict) -> str:
     kinds = [sections.SECTIONS[kind].render for kind in sections.shown(report)]
     for part in (_head, _status, *kinds, _validation, _transfer, _timelapse):
         lines += part(report)
-    return "\n".join(_said_once(lines)).rstrip() + "\n"
-
-
-def _said_once(lines: list[str]) -> list[str]:
-    """``lines`` without a figure's "no finished task" line that repeats the one before it (a
-    figure of two images, neither drawn, said it twice)."""
-    out: list[str] = []
-    last = None  # the last line that is not blank
-    for line in lines:
-        if line == NO_TASK == last or (line == "" and out[-2:] == [NO_TASK, ""]):
-            continue
-        out.append(line)
-        last = line or last
-    return out
+    return "\n".join(lines).rstrip() + "\n"
 
 
 def _head(report: dict) -> list[str]:
@@ -83,6 +70,12 @@ ALWAYS_SHOWN = {"table1": "Table 1 shows every evolve experiment"}
 numbers beside an experiment's."""
 
 
+def left_empty(missing: dict) -> dict:
+    """The figures of report.json's ``figures.missing`` that the report leaves empty (those
+    of :data:`ALWAYS_SHOWN` it shows without the paper's numbers)."""
+    return {name: why for name, why in missing.items() if name not in ALWAYS_SHOWN}
+
+
 def _missing_figures(report: dict) -> list[str]:
     """A line for the figures no experiment of the campaign feeds, and why (report.json's
     ``figures.missing``; an experiment declares them in its ``figures`` table), and one for
@@ -100,7 +93,8 @@ def _missing_figures(report: dict) -> list[str]:
                   "numbers.", ""]
     for name, shown in ALWAYS_SHOWN.items():
         if name in missing:
-            lines += [f"{shown}, the paper's row beside none ({name}: {missing.pop(name)}).", ""]
+            lines += [f"{shown}, the paper's row beside none ({name}: {missing[name]}).", ""]
+    missing = left_empty(missing)
     if missing:
         reasons = "; ".join(f"{name}: {why}" for name, why in missing.items())
         lines += [f"Figures no experiment feeds (declared by an experiment's `figures` table "

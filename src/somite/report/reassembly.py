@@ -23,7 +23,7 @@ from .campaign import CampaignFolder, Task, task_row
 from .evolution import compare, shape_order
 from .load import Loaded, shape_name
 from .section import Inputs, Section
-from .text import claim, images, number, pair_rows, table, tests_table
+from .text import claim, images, images_of, number, pair_rows, table, tests_table
 
 TITLES = {
     "figure7": "Figure 7: rho during re-optimisation, homogeneous and heterogeneous reassembly",
@@ -288,9 +288,8 @@ def _render_eta(report: dict) -> list[str]:
     lines += table(["shape", "donors", "reassemblies", "median eta_num", "median eta_weight",
                     "paper (median eta_num / eta_weight)"], rows)
     lines += tests_table(tests)
-    for which, files in data["files"].items():
-        lines += images(files, f"Figure 9, {which}")
-    return lines
+    return lines + images_of((files, f"Figure 9, {which}")
+                             for which, files in data["files"].items())
 
 
 def render_discovered(report: dict) -> list[str]:

@@ -55,6 +55,15 @@ NO_TASK = "*No finished task for this figure.*"
 """What :func:`images` says of a figure with no image."""
 
 
+def images_of(figures) -> list[str]:
+    """:func:`images` of each (files, alt) of one figure drawn in several images; one line
+    saying so when none has any (not one an image)."""
+    figures = list(figures)
+    if not any(files for files, _ in figures):
+        return [NO_TASK, ""]
+    return [line for files, alt in figures for line in images(files, alt)]
+
+
 def images(files, alt: str) -> list[str]:
     """A figure's PNG shown, its other formats linked; a line saying so when it has none."""
     if not files:

@@ -81,8 +81,8 @@ def _control_step(k, batch, group, n, given):
                 actuation[v] = given[b, v]
                 if trace.pos.shape[0] > 0:
                     trace.actuation[b, k - 1, v] = given[b, v]
-        lanes_rest = group.lanes.rest[:, b - group.first]
-        rest = state.work.physics.rest if group.count == 1 else lanes_rest
+        rest = (state.work.physics.rest if group.count == 1
+                else group.lanes.rest[:, b - group.first])
         before_physics(state.robot, actuation, params, rest)
     clock = tick(spent, P_REST, clock, timed)
     advance_group(batch.system, batch.work.physics, params, group, n)

@@ -44,6 +44,15 @@ def test_stepper_benchmark():
                                                "stepper_given_actuation"}
 
 
+def test_robot_parts_benchmark():
+    out = run_script("robot_parts.py", "--shape", "worm", "--calls", "2", "--repeats", "1")
+    (worm,) = out
+    assert worm["shape"] == "worm" and worm["robots"] == 8
+    assert {"find_contacts", "sense", "controller", "lowest_gap"} <= set(worm["parts"])
+    assert worm["exp"]["calls a step"] > worm["controller"]["nodes"]
+    assert worm["controller"]["bit for bit"]
+
+
 def test_generation_benchmark():
     out = run_script("generation.py", "--generations", "2", "--population", "4", "--evolved",
                      "2")

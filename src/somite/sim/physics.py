@@ -46,6 +46,10 @@ if TYPE_CHECKING:
 HALF_BLOCK = BLOCK_SIDE / 2
 BLOCK_REACH = HALF_BLOCK * math.sqrt(2.0)
 """Farthest a point of a block is from its centre [m]."""
+CLEAR_REACH = 1.5 * HALF_BLOCK
+"""[m] Above :data:`BLOCK_REACH` by a margin that rounding cannot cross: a block whose centre
+is higher than this over the ground's top under the robot (:func:`ground_top`) has no corner
+at or below it."""
 RESTITUTION_SPEED = 1.0
 """[m/s] Slower impacts do not bounce (dyn4j's restitution velocity)."""
 LINEAR_SLOP = 0.005
@@ -810,6 +814,28 @@ def segment_near(xs, n, x, guess) -> int:
     return i
 
 
+@njit(inline="always")
+def ground_top(xs, ys, n, pos, n_points, guess) -> float:
+    """The highest terrain vertex of the segments under the robot's bodies (their centres' x
+    span widened by :data:`CLEAR_REACH`), or inf where that span leaves the terrain (the
+    ground's height is then extrapolated): the tests it allows leave out only what exact ones
+    would leave out."""
+    x_lo = x_hi = pos[0, 0]
+    for p in range(1, n_points):
+        x_lo = min(x_lo, pos[p, 0])
+        x_hi = max(x_hi, pos[p, 0])
+    x_lo -= CLEAR_REACH
+    x_hi += CLEAR_REACH
+    if not (x_lo >= xs[0] and x_hi < xs[n - 1]):
+        return math.inf
+    i = segment_near(xs, n, x_lo, guess)
+    top = ys[i]
+    while i < n - 1 and xs[i] <= x_hi:
+        top = max(top, ys[i + 1])
+        i += 1
+    return top
+
+
 @uncounted
 def ground_height(xs, ys, n, x, guess) -> float:
     """Height [m] of the terrain at x (``guess``: a segment index near x)."""
@@ -822,11 +848,24 @@ def ground_height(xs, ys, n, x, guess) -> float:
 def block_polygon(p, pos, cos, sin, poly):
     """Body p's square into ``poly`` (4, 4): vertices x, y and the outward normal of the edge
     from each vertex to the next, counter-clockwise from the lower left (in its own frame)."""
+    block_vertices(p, pos, cos, sin, poly)
+    block_normals(p, cos, sin, poly)
+
+
+@njit(inline="always")
+def block_vertices(p, pos, cos, sin, poly):
+    """:func:`block_polygon`'s vertices alone (columns 0, 1)."""
     for j in range(4):
         lx = HALF_BLOCK if j == 1 or j == 2 else -HALF_BLOCK
         ly = HALF_BLOCK if j >= 2 else -HALF_BLOCK
         poly[j, 0] = pos[p, 0] + cos[p] * lx - sin[p] * ly
         poly[j, 1] = pos[p, 1] + sin[p] * lx + cos[p] * ly
+
+
+@njit(inline="always")
+def block_normals(p, cos, sin, poly):
+    """:func:`block_polygon`'s edge normals alone (columns 2, 3)."""
+    for j in range(4):
         nx = 0.0
         ny = 0.0
         if j == 0:
@@ -1089,10 +1128,15 @@ def find_contacts(robot, ground, state, pos, params):
     cos = state.cos
     sin = state.sin
     segment = state.segment
+    top = ground_top(xs, ys, n, pos, robot.n_points, segment[robot.n_points])
     left = n
     for p in range(robot.n_points):
         state.contact[p] = False
-        block_polygon(p, pos, cos, sin, two)
+        if pos[p, 1] - CLEAR_REACH > top:
+            continue  # every segment's test below would find the block above it
+        # The normals only for a block that reaches a segment's ground: most blocks are above.
+        normals = False
+        block_vertices(p, pos, cos, sin, two)
         lo_x = hi_x = two[0, 0]
         lo_y = two[0, 1]
         for j in range(1, 4):
@@ -1104,6 +1148,9 @@ def find_contacts(robot, ground, state, pos, params):
         left = min(left, i)
         while i < n - 1 and xs[i] < hi_x:
             if lo_y < max(ys[i], ys[i + 1]) and not above_segment(xs, ys, i, two):
+                if not normals:
+                    block_normals(p, cos, sin, two)
+                    normals = True
                 ground_polygon(xs, ys, i, one)
                 if add_contacts(robot, state, pos, p, -1, i, (one, two),
                                 params.friction) > 0:
@@ -1262,14 +1309,20 @@ def corner_state(robot, pos, vel, cos, sin, corner_pos, corner_vel):
 
 
 @uncounted
-def lowest_gap(robot, ground, pos, cos, sin, guess) -> float:
+def lowest_gap(robot, ground, pos, cos, sin, segment) -> float:
     """How high [m] the robot's lowest block corner is above the ground under it (``cos``,
-    ``sin`` as for :func:`corner_state`; ``guess``: a segment index near the robot)."""
+    ``sin`` as for :func:`corner_state`; ``segment``: each block's segment index as
+    :func:`find_contacts` leaves it, where the search for its corners' starts: the index it
+    finds does not depend on where it starts, only the walk's length does)."""
     gap = math.inf
+    top = ground_top(ground.xs, ground.ys, ground.n, pos, robot.n_points,
+                     segment[robot.n_points])
     for p in range(robot.n_points):
+        if pos[p, 1] - CLEAR_REACH - top > gap:
+            continue  # each corner's gap is larger: the minimum stays what it is
         for j in range(4):
             lx = HALF_BLOCK if j == 1 or j == 2 else -HALF_BLOCK
             ly = HALF_BLOCK if j >= 2 else -HALF_BLOCK
             x, y = world_point(p, lx, ly, pos, cos, sin)
-            gap = min(gap, y - ground_height(ground.xs, ground.ys, ground.n, x, guess))
+            gap = min(gap, y - ground_height(ground.xs, ground.ys, ground.n, x, segment[p]))
     return gap

@@ -221,11 +221,14 @@ def update_histories(step, n_voxels, corners, contact, sensing, params):
 
 
 @uncounted
-def _window_mean(hist, v, step, window, column) -> float:
+def _window_mean(hist, v, step, slot, window, column) -> float:
+    """The mean of ``hist``'s last min(step + 1, window) rows from ``slot`` (step % window)
+    back, newest first."""
     count = min(step + 1, window)
     total = 0.0
-    for i in range(count):
-        total += hist[v, (step - i) % window, column]
+    for _ in range(count):
+        total += hist[v, slot, column]
+        slot = slot - 1 if slot > 0 else window - 1
     return total / count
 
 
@@ -246,6 +249,9 @@ def sense(step, seed, sensing, ground, guess, params, noise, readings):
     vmax = params.velocity_max
     reach = params.lidar_range
     sigma = params.noise
+    # The ring buffers' rows of this step, once: a division each, not one a reading.
+    touch_slot = step % wt
+    velocity_slot = step % wv
     for r in range(n_readings):
         v = reading_voxel[r]
         kind = READING_KIND[codes[r]]
@@ -256,11 +262,13 @@ def sense(step, seed, sensing, ground, guess, params, noise, readings):
         elif kind == TOUCH:
             count = min(step + 1, wt)
             total = 0.0
-            for i in range(count):
-                total += touch_hist[v, (step - i) % wt]
+            slot = touch_slot
+            for _ in range(count):
+                total += touch_hist[v, slot]
+                slot = slot - 1 if slot > 0 else wt - 1
             value = total / count
         elif kind == VELOCITY:
-            mean = _window_mean(vel_hist, v, step, wv, component)
+            mean = _window_mean(vel_hist, v, step, velocity_slot, wv, component)
             value = soft_normalise(mean, -vmax, vmax)
         elif kind == LIDAR:
             dx = rays[component, 0]

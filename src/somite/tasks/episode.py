@@ -149,7 +149,7 @@ def _observe(k, robot, ground, body, at, params, out):
         return
     cx, cy, tilt, near = at
     mass, vel = robot.mass, body.body_vel
-    gap = lowest_gap(robot, ground, body.body_pos, body.cos, body.sin, near)
+    gap = lowest_gap(robot, ground, body.body_pos, body.cos, body.sin, body.segment)
     total = vx = vy = 0.0
     for p in range(robot.n_points):
         total += mass[p]

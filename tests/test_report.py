@@ -177,6 +177,15 @@ def test_rho_and_eta_are_those_of_the_task_folders(campaign, report):
     assert data["rq3_reassembly"]["curves"]["biped"]["discovered modules"]["tasks"]
 
 
+def test_figure7_sets_what_the_paper_says_beside_each_group(report):
+    out, _ = report
+    rows = [line for line in (out / "index.md").read_text().splitlines()
+            if line.startswith(("| biped | heterogeneous |", "| worm | homogeneous |"))]
+    assert len(rows) == 2
+    assert rows[0].endswith("more challenging heterogeneous combinations\" (no number) |")
+    assert rows[1].endswith("≈ 0.8: worms just fall short of 80 % |")
+
+
 def test_discovery_rows_are_the_partition_files(campaign, report):
     _, data = report
     robots = data["discovery"]["robots"]

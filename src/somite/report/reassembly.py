@@ -206,7 +206,8 @@ def build(inputs: Inputs) -> dict:
     out = {"reassemblies": reassemblies, "reoptimizations": rows}
     for key, label, reported in (
         ("figure7", figure7_label(campaign),
-         {k: r.to_dict() for k, r in paper.RHO_HOMOGENEOUS.items()}),
+         {**{k: r.to_dict() for k, r in paper.RHO_HOMOGENEOUS.items()},
+          "heterogeneous": paper.RHO_HETEROGENEOUS.to_dict()}),
         ("figure8", figure8_label(campaign), paper.RHO_BY_OMEGA.to_dict()),
         ("rq3_reassembly", discovered_label(campaign), None),
     ):
@@ -239,6 +240,8 @@ def _rho_table(data: dict, reported=None) -> list[str]:
             said = ""
             if reported and group == "homogeneous" and shape in reported:
                 said = reported[shape]["text"]
+            elif reported and group == "heterogeneous" and group in reported:
+                said = reported[group]["text"]
             rows.append([shape, group, len(g["tasks"]), number(start[0] if start else None),
                          number(g["median"][-1] if g["median"] else None), said])
         tests += pair_rows(data["end"][shape], shape)

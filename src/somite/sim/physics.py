@@ -1156,7 +1156,8 @@ def find_contacts(robot, ground, state, pos, params):
                                 params.friction) > 0:
                     state.contact[p] = True
             i += 1
-    segment[robot.n_points] = left
+    if left < n:  # else every block was clear of the ground: the last step's guess stands
+        segment[robot.n_points] = left
     for q in range(robot.n_pairs):
         a = robot.pair_ends[q, 0]
         b = robot.pair_ends[q, 1]

@@ -9,7 +9,8 @@ robot's, before re-optimisation) and, for a reassembly and its re-optimisation, 
 over the mean of the donors' v_x on the same terrains (the reassembly's report.json), as the
 report's Figures 7 and 8 read it at the end. Then the robot-control-steps done and left, and the hours
 left at the runs' recent pace, one task at a time and two at a time (this machine's 2 cores).
-The 12 RQ1 and ablation runs (from paper-rq1, finished) are summed up in one line.
+The 12 RQ1 and ablation runs (from paper-rq1, finished) are summed up in one line, and the
+finished runs that still lack ``check-finished.sh``'s checks are named with its command.
 """
 
 from __future__ import annotations
@@ -57,6 +58,22 @@ def table(campaign: Path, doc: dict, infos: list[dict]) -> list[str]:
     return lines
 
 
+def checks_line(tasks: list[str]) -> str:
+    if not tasks:
+        return "Every finished run has its checks (2D-VSR-Sim, fresh terrains, ground gap)."
+    return ("Finished runs still without their checks: " + ", ".join(tasks) + " (`CAMPAIGN="
+            "reports/paper/campaign sh reports/paper-rq1/check-finished.sh " + " ".join(tasks)
+            + "`, README beside this file).")
+
+
+def unchecked(campaign: Path, doc: dict, infos: list[dict]) -> list[str]:
+    """The finished runs (evolutions, re-optimisations) without check-finished.sh's checks
+    (their 20 fresh terrains' file is its last)."""
+    return [task["id"] for task, info in zip(doc["tasks"], infos)
+            if task["kind"] in ("evolve", "reoptimize") and info["state"] == "done"
+            and not (campaign / "checks" / f"{task['id'].replace('/', '-')}-fresh.json").is_file()]
+
+
 def main() -> None:
     campaign = Path(sys.argv[1]) if len(sys.argv) > 1 else HERE / "campaign"
     doc = campaign_dir.read(campaign)
@@ -74,6 +91,7 @@ def main() -> None:
              "",
              f"RQ1 and its ablation (from paper-rq1): {sum(i['state'] == 'done' for i in rq1)} "
              f"of {len(rq1)} runs done (reports/paper-rq1/STATUS.md).", "",
+             checks_line(unchecked(campaign, doc, infos)), "",
              *table(campaign, doc, infos), ""]
     (HERE / "STATUS.md").write_text("\n".join(lines))
     print(f"wrote {HERE / 'STATUS.md'}")

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import csv
 import errno
+import io
 import json
 import math
 import os
@@ -12,6 +14,7 @@ import sys
 import tempfile
 import tomllib
 import uuid
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 from .errors import bad
@@ -36,6 +39,18 @@ def json_safe(value):
     if isinstance(value, (list, tuple)):
         return [json_safe(v) for v in value]
     return value
+
+
+def csv_text(columns: Sequence[str], rows: Iterable) -> str:
+    """CSV text, the header ``columns`` then ``rows`` (each a sequence in the columns' order,
+    or a mapping read by them: other keys ignored, a missing one empty), lines ending in
+    ``\n``, None as an empty field: every CSV file somite writes, so that they read alike."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(columns)
+    for row in rows:
+        writer.writerow([row.get(c) for c in columns] if isinstance(row, Mapping) else row)
+    return buffer.getvalue()
 
 
 def write_atomic(path: str | os.PathLike, text: str | bytes, field: str = "out") -> Path:

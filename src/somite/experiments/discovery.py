@@ -5,12 +5,10 @@ compactness) and ``candidates.csv`` (every candidate, ranked)."""
 
 from __future__ import annotations
 
-import csv
-import io
 import itertools
 from pathlib import Path
 
-from .._io import make_folder, write_atomic
+from .._io import csv_text, make_folder, write_atomic
 from ..brain.genome import Genome
 from ..modules.discovery import partition_around, rank_candidates, score
 
@@ -65,16 +63,11 @@ def _module_score(genome: Genome, partition, label: str) -> dict:
 
 
 def _csv(ranked) -> str:
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(("rank", "size", "voxels", "inside", "crossing", "compactness"))
-    for rank, candidate in enumerate(ranked, start=1):
-        voxels = " ".join(f"{x},{y}" for x, y in candidate.voxels)
-        writer.writerow((
-            rank, candidate.size, voxels, repr(candidate.inside), repr(candidate.crossing),
-            format_compactness(candidate.compactness, full=True),
-        ))
-    return buffer.getvalue()
+    return csv_text(("rank", "size", "voxels", "inside", "crossing", "compactness"), (
+        (rank, candidate.size, " ".join(f"{x},{y}" for x, y in candidate.voxels),
+         repr(candidate.inside), repr(candidate.crossing),
+         format_compactness(candidate.compactness, full=True))
+        for rank, candidate in enumerate(ranked, start=1)))
 
 
 def format_compactness(value: float, full: bool = False) -> str:

@@ -7,12 +7,10 @@ the graft kept and dropped, and with validation terrains v_x of the three robots
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 from pathlib import Path
 
-from .._io import make_folder, write_atomic
+from .._io import csv_text, make_folder, write_atomic
 from ..errors import bad
 from ..modules.reassembly import Take, paper_takes, reassemble, receiver_for
 from ..modules.transfer import transferability
@@ -69,7 +67,7 @@ def write_reassembly(out: Path, genomes, files, partitions, config, *, receiver_
     make_folder(out)
     result.genome.save(out / "reassembled.json")
     write_atomic(out / "report.json", json.dumps(report, indent=1, allow_nan=False) + "\n")
-    write_atomic(out / "report.csv", _csv(report["modules"]))
+    write_atomic(out / "report.csv", csv_text(CSV_COLUMNS, report["modules"]))
     return result, report
 
 
@@ -119,14 +117,3 @@ def _takes(text: str, donors, receiver: Partition) -> dict[str, Take]:
     if missing:
         raise bad("take", text, f"receiver modules without a donor module: {missing}")
     return takes
-
-
-def _csv(rows: list[dict]) -> str:
-    buffer = io.StringIO()
-    writer = csv.DictWriter(
-        buffer, fieldnames=CSV_COLUMNS, extrasaction="ignore", lineterminator="\n"
-    )
-    writer.writeheader()
-    for row in rows:
-        writer.writerow({k: ("" if row[k] is None else row[k]) for k in CSV_COLUMNS})
-    return buffer.getvalue()

@@ -9,13 +9,11 @@ distinct genome. Means and rho follow :mod:`somite.tasks.velocity` (NaN on any t
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 from collections.abc import Sequence
 from pathlib import Path
 
-from .._io import write_atomic
+from .._io import csv_text, write_atomic
 from ..brain.genome import Genome
 from ..errors import bad
 from ..sim.config import SimConfig
@@ -61,12 +59,8 @@ def transfer_curve(run: str | Path, donors: Sequence[float], config: SimConfig,
             "validation_velocity": validation,
             "rho": rho(validation, *donors) if donors else None,
         })
-    out = io.StringIO()
-    writer = csv.DictWriter(out, TRANSFER_COLUMNS, lineterminator="\n")
-    writer.writeheader()
-    writer.writerows(rows)
     run_dir.record("transfer.csv")
-    write_atomic(run_dir.file("transfer.csv"), out.getvalue())
+    write_atomic(run_dir.file("transfer.csv"), csv_text(TRANSFER_COLUMNS, rows))
     return rows
 
 

@@ -30,9 +30,7 @@ removed. ``--resume --generations N`` rewrites ``config.json`` with N.
 
 from __future__ import annotations
 
-import csv
 import hashlib
-import io
 import json
 import math
 import os
@@ -44,6 +42,7 @@ from .._io import (
     TEMPORARY,
     check_output_file,
     check_output_folder,
+    csv_text,
     discard,
     make_folder,
     read_json,
@@ -321,11 +320,7 @@ class RunDirectory:
         """Keep the log rows and best genomes up to ``generation`` (``history``, checked by
         :func:`~.history.read_history`): the rest the resumed run writes again."""
         self.digests = None  # until both files are written whole again
-        out = io.StringIO()
-        writer = csv.DictWriter(out, LOG_COLUMNS, lineterminator="\n")
-        writer.writeheader()
-        writer.writerows(history.rows[: generation + 1])
-        log = out.getvalue()
+        log = csv_text(LOG_COLUMNS, history.rows[: generation + 1])
         write_atomic(self.file("log.csv"), log)
         kept = history.bests[: generation + 1]
         bests = "".join(json.dumps(e, separators=(",", ":")) + "\n" for e in kept)

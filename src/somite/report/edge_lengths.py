@@ -12,12 +12,9 @@ the seeds; each run's mean length is also compared between the groups. A run not
 
 from __future__ import annotations
 
-import csv
-import io
-
 import numpy as np
 
-from .._io import write_atomic
+from .._io import csv_text, write_atomic
 from ..analysis.stats import describe
 from ..brain.delays import edge_lengths, length_counts
 from ..viz import report_figures as figures
@@ -124,7 +121,7 @@ def build(inputs: Inputs) -> dict:
     files = inputs.save(figures.edge_lengths_figure, drawn, FIGURE, TITLE)
     rows = csv_rows(shapes)
     if rows:
-        write_atomic(inputs.folder / CSV, _csv_text(rows))
+        write_atomic(inputs.folder / CSV, csv_text(CSV_COLUMNS, rows))
     return {KEY: {"shapes": shapes, "run_mean_tests": tests, "files": files,
                   "csv": CSV if rows else None}}
 
@@ -145,14 +142,6 @@ def csv_rows(shapes: dict) -> list[list]:
             for shape, groups in shapes.items() for group, entry in groups.items()
             for task, run in entry["per_run"].items()
             for length, count in zip(run["lengths"], run["counts"])]
-
-
-def _csv_text(rows: list[list]) -> str:
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(CSV_COLUMNS)
-    writer.writerows(rows)
-    return buffer.getvalue()
 
 
 def render(report: dict) -> list[str]:

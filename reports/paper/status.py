@@ -7,8 +7,9 @@ run (evolution or re-optimisation) has logged, its logged best v_x (the luckiest
 generation's terrains and noise), its last validation v_x (a reassembly's: the reassembled
 robot's, before re-optimisation) and, for a reassembly and its re-optimisation, rho: that v_x
 over the mean of the donors' v_x on the same terrains (the reassembly's report.json), as the
-report's Figures 7 and 8 read it at the end. Then the robot-control-steps done and left, and the hours
-left at the runs' recent pace, one task at a time and two at a time (this machine's 2 cores).
+report's Figures 7 and 8 read it at the end. Then the robot-control-steps done and left, and
+the hours left at the runs' recent pace, one task at a time and two at a time (this machine's
+2 cores).
 The 12 RQ1 and ablation runs (from paper-rq1, finished) are summed up in one line, and the
 finished runs that still lack ``check-finished.sh``'s checks are named with its command.
 """

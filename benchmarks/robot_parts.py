@@ -325,9 +325,10 @@ def measure(shape: str, calls: int, repeats: int) -> dict:
     lanes = _lanes_of(batch, readings)
     _graph_lanes_calls(1, lanes, hidden_sigmoid)
     nxt, acts = _graph_alone_calls(1, batch, lanes, hidden_sigmoid)
+    lane_next, lane_actuation = lanes[8], lanes[10]
     same = all(
-        np.array_equal(lanes[8][:batch.ctrl.n_nodes[g], g], nxt[g, :batch.ctrl.n_nodes[g]])
-        and np.array_equal(lanes[10][:system.n_voxels[g], g], acts[g, :system.n_voxels[g]])
+        np.array_equal(lane_next[:batch.ctrl.n_nodes[g], g], nxt[g, :batch.ctrl.n_nodes[g]])
+        and np.array_equal(lane_actuation[:system.n_voxels[g], g], acts[g, :system.n_voxels[g]])
         for g in range(ROBOTS))
     lane_us = _least(lambda: _graph_lanes_calls(calls, lanes, hidden_sigmoid), repeats) * 1e6 / per
     alone_us = _least(lambda: _graph_alone_calls(calls, batch, lanes, hidden_sigmoid),

@@ -25,7 +25,8 @@ from .campaign_fixture import UNFINISHED, build_campaign
 from .test_report_sections import skeleton, smoke_report
 
 SECTIONS = ("## Tasks", "## Table 1", "## Figure 3", "## Figure 10", "## Figure 5",
-            "## Figure 11", "### Figure 7", "### Figure 8", "## Figure 9", "## Figure 12",
+            "## Figure 11", "## Beyond the paper: eta of the best during evolution",
+            "### Figure 7", "### Figure 8", "## Figure 9", "## Figure 12",
             "## Beyond the paper: reassembly along the discovered modules",
             "## Beyond the paper: every final best on the validation terrains",
             "## Transfer: the final bests in 2D-VSR-Sim", "## Time-lapse")
@@ -64,7 +65,8 @@ def check_sections(out, data) -> None:
               *data["figure5"]["files"]["logged"], *data["figure11"]["files"]["validation"],
               *data["figure7"]["files"], *data["figure8"]["files"],
               *data["figure9"]["files"]["eta_num"], *data["discovery"]["files"],
-              *data["rq3_reassembly"]["files"], *data["validation"]["files"]]
+              *data["rq3_reassembly"]["files"], *data["validation"]["files"],
+              *data["cuts_during_evolution"]["files"]]
     assert {name.rsplit(".", 1)[1] for name in listed} == {"png", "svg"}
     for name in listed:
         assert (out / "figures" / name).stat().st_size > 0
@@ -175,6 +177,34 @@ def test_rho_and_eta_are_those_of_the_task_folders(campaign, report):
         assert set(groups) == {"omega 0.1", "omega 1", "omega 10"}
     assert set(data["figure7"]["curves"]["worm"]) == {"homogeneous", "heterogeneous"}
     assert data["rq3_reassembly"]["curves"]["biped"]["discovered modules"]["tasks"]
+
+
+def test_the_cuts_during_evolution_are_those_of_each_runs_bests(campaign, report):
+    """Every finished run of Figure 10's groups, cut along the paper's partition at each
+    generation (validate_every 1): its last eta is the cut of its last best, and the groups'
+    final etas are compared as Figure 9's are."""
+    from somite.modules.module import cut
+    from somite.sim.partition import Partition
+
+    _, data = report
+    cuts = data["cuts_during_evolution"]
+    assert cuts["under_way"] == {} and cuts["matched"] == {} and cuts["without"] == []
+    for shape in ("biped", "worm"):
+        partition = Partition.preset("paper", shape)
+        compared = cuts["final"][shape]["eta_num"]
+        assert len(compared["groups"]) == 3 and len(compared["tests"]) == 3
+        finished = {f"{e}/{f.name}" for e in ("rq1", "omega-10", "omega-0.1")
+                    for f in _finished(campaign, e, shape)}
+        assert {t for g in compared["groups"].values() for t in g["tasks"]} == finished
+        for label, group in compared["groups"].items():
+            expected = []
+            for task in group["tasks"]:
+                last = (campaign / task / "bests.jsonl").read_text().splitlines()[-1]
+                best = Genome.from_dict(json.loads(last)["genome"])
+                expected.append(cut(best, partition).total.eta_num)
+            assert group["values"] == expected
+            assert cuts["curves"][shape][label]["generation"] == [0.0, 1.0, 2.0]
+            assert cuts["curves"][shape][label]["eta_num_median"][0] == 0.0  # minimal start
 
 
 def test_figure7_sets_what_the_paper_says_beside_each_group(report):
@@ -530,6 +560,11 @@ def test_an_interim_report_draws_the_runs_under_way_in_the_curves_only(campaign,
     # Figure 5 so far adds nothing: the run under way is behind finished runs of its group,
     # and both groups are compared at generation 2, where only finished runs are.
     assert matched == {}
+    # The cuts draw it to its last whole best, and compare nothing more than Figure 5 does.
+    cuts = data["cuts_during_evolution"]
+    assert cuts["under_way"] == {UNFINISHED[0]: 1} and cuts["matched"] == {}
+    assert UNFINISHED[0] in cuts["curves"]["worm"]["omega 1 (neutral)"]["runs"]
+    assert cuts["final"] == report[1]["cuts_during_evolution"]["final"]
     assert data["timelapse"] == report[1]["timelapse"]
     assert UNFINISHED[0] not in {r["task"] for r in data["validation"]["robots"]}
     assert data["caveats"]["under_way"]["tasks"] == [UNFINISHED[0]]

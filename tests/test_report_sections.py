@@ -80,7 +80,7 @@ def test_a_figure_without_two_finished_groups_says_why_it_has_no_test():
     figure5 = text.split("## Figure 5")[1].split("\n## ")[0]
     assert "*No pair to test: no shape has finished tasks in two groups.*" in figure5
     assert "| sample | pair |" not in figure5
-    assert text.count("| sample | pair |") == 2  # Figure 11's and Figure 9's tables stay
+    assert text.count("| sample | pair |") == 3  # Figure 11's, the cuts' and Figure 9's stay
 
 
 def test_a_campaign_of_evolve_experiments_alone_shows_no_empty_reassembly_sections():

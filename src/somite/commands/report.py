@@ -27,8 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="draw no time-lapse strips")
     parser.add_argument("--under-way", action="store_true",
                         help="an interim report: also draw the evolve runs not finished yet in "
-                        "the curves (Figures 3 and 10), to their last logged generation, and a "
-                        "time-lapse of each one's best so far")
+                        "the curves (Figures 3 and 10, the cuts during evolution), to their last "
+                        "logged generation, and a time-lapse of each one's best so far")
     add_options(parser, "quiet")
 
 

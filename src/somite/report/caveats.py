@@ -109,8 +109,9 @@ def under_way(report: dict) -> dict:
         out["caveat"] = (
             f"interim report: {_count(len(found), 'run')} still under way ({runs}), drawn to "
             "their last logged generation in the curves of Figures 3 and 10 where their "
-            "experiment feeds them, in the time-lapses and in Figure 5's table at the same "
-            "budget; every other table, test and final figure holds the finished runs only")
+            "experiment feeds them and in the cuts during evolution, in the time-lapses and in "
+            "the tables at the same budget (Figure 5's, the cuts'); every other table, test "
+            "and final figure holds the finished runs only")
     return out
 
 

@@ -5,17 +5,18 @@ The report builds and shows them in the order of
 :mod:`.section`). A new kind of experiment gets its part of the report by a module of its own
 here (its ``SECTION``) and its line below; a kind with nothing to show still has its line, a
 :class:`~.section.Section` that builds ``{}`` and renders ``[]``. A part that only some
-campaigns declare (the edge lengths, :mod:`.edge_lengths`) joins its kind's section.
+campaigns declare (the edge lengths, :mod:`.edge_lengths`) or that reads more of its runs
+(the cuts during evolution, :mod:`.cut_curves`) joins its kind's section.
 """
 
 from __future__ import annotations
 
 from ..campaigns.kinds import EXPERIMENT_KINDS
-from . import discovery, edge_lengths, evolution, reassembly
+from . import cut_curves, discovery, edge_lengths, evolution, reassembly
 from .section import Section, joined
 
 SECTIONS: dict[str, Section] = {
-    "evolve": joined(evolution.SECTION, edge_lengths.SECTION),
+    "evolve": joined(evolution.SECTION, edge_lengths.SECTION, cut_curves.SECTION),
     "reassemble": reassembly.SECTION,  # its re-optimisations' too
     "discover": discovery.SECTION,
 }

@@ -72,6 +72,23 @@ def curves_figure(found: dict, title: str):
     return figure
 
 
+def cut_curves_figure(found: dict, title: str):
+    """The cuts during evolution: per shape (columns), eta_num (top) and eta_weight (bottom)
+    of the best, median +/- sd across runs, one colour per group (``found``: shape -> group ->
+    runs whose logs hold ``eta_num`` and ``eta_weight``)."""
+    figure, axes = _figure(len(found), 2, height=3.0)
+    for column, (shape, groups) in enumerate(found.items()):
+        top, bottom = axes[0, column], axes[1, column]
+        plot_curves(top, groups, "eta_num", r"$\eta_{num}$ of the best")
+        plot_curves(bottom, groups, "eta_weight", r"$\eta_{weight}$ of the best")
+        top.set_title(shape, fontsize=10)
+        bottom.set_xlabel("generation")
+        if column == 0:
+            top.legend(fontsize=6, frameon=False)
+    _title(figure, title)
+    return figure
+
+
 def boxes_figure(panels: dict[str, dict[str, list[float]]], ylabel: str, title: str,
                  one_sided: tuple[str, str] | None = None):
     """Figures 5, 9 and 11: per shape, one box per group with the pairwise p-values

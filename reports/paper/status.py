@@ -77,11 +77,11 @@ def unchecked(campaign: Path, doc: dict, infos: list[dict]) -> list[str]:
             and not (campaign / "checks" / f"{task['id'].replace('/', '-')}-fresh.json").is_file()]
 
 
-def pace_now(doc: dict, infos: list[dict]) -> tuple[float, float] | None:
+def pace_now(doc: dict, infos: list[dict], steps_left: float) -> tuple[float, float] | None:
     """The median pace (robot-control-steps a second) of the runs going now (running or
-    partial, over their last generations), and the seconds the unfinished tasks need at it one
-    at a time; None where no run is going. The campaign's own figure takes the median over
-    every run it has timed, most of them on older kernels or beside other work."""
+    partial, over their last generations), and the seconds ``steps_left`` take at it one at a
+    time; None where no run is going. The campaign's own figure takes the median over every
+    run it has timed, most of them on older kernels or beside other work."""
     paces = [estimate(t) / i["generations"] / i["seconds_per_generation"]
              for t, i in zip(doc["tasks"], infos)
              if i["state"] in ("running", "partial") and i.get("seconds_per_generation")
@@ -89,16 +89,7 @@ def pace_now(doc: dict, infos: list[dict]) -> tuple[float, float] | None:
     if not paces:
         return None
     pace = statistics.median(paces)
-    left = sum(estimate(t) * (1.0 - part(i)) for t, i in zip(doc["tasks"], infos)
-               if i["state"] != "done")
-    return pace, left / pace
-
-
-def part(info: dict) -> float:
-    """The share of an unfinished run's generations its log has reached."""
-    if info["generation"] is None or not info["generations"]:
-        return 0.0
-    return min(info["generation"], info["generations"]) / info["generations"]
+    return pace, steps_left / pace
 
 
 def main() -> None:
@@ -110,7 +101,7 @@ def main() -> None:
     left = seconds_left(doc, infos)
     hours = "-" if not left else f"{left / 3600:.0f} h one task at a time, " \
         f"{left / 7200:.0f} h two at a time"
-    going = pace_now(doc, infos)
+    going = pace_now(doc, infos, now.steps[1] - now.steps[0])
     if going:
         hours += (f" (at the pace of the runs going now, {going[0] / 1e3:.0f}k "
                   f"robot-control-steps a second each: {going[1] / 7200:.0f} h two at a time)")

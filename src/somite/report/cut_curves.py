@@ -28,7 +28,7 @@ from ..modules.module import cut
 from ..sim.body import Shape
 from ..sim.partition import Partition
 from ..viz import report_figures as figures
-from .evolution import compare, groups
+from .evolution import compare, groups, same_budget
 from .section import Inputs, Section
 from .text import images_of, median_sd, number, pair_rows, plain, table, tests_table
 
@@ -89,7 +89,7 @@ def cut_series(run: RunLog, finished: bool = True) -> RunLog | None:
         return None
     last = int(run.log["generation"][-1]) if finished and len(run.log["generation"]) else None
     bests = sampled_bests(run.path / "bests.jsonl", every, last)
-    rows = {int(g): k for k, g in enumerate(run.log["generation"])}
+    rows = _rows(run)
     kept = sorted(g for g in bests if g in rows)
     if not kept:
         return None
@@ -131,16 +131,10 @@ def matched(series: dict, under_way: set[str]) -> dict:
     generation is 0 or its compared runs have all finished."""
     out = {}
     for shape, labelled in series.items():
-        if len(labelled) < 2:
+        same = same_budget(labelled, _rows, under_way)
+        if same is None:
             continue
-        generation = min(max(int(run.log["generation"][-1]) for run in group.values())
-                         for group in labelled.values())
-        at = {label: {task: int(np.flatnonzero(run.log["generation"] == generation)[0])
-                      for task, run in group.items() if generation in run.log["generation"]}
-              for label, group in labelled.items()}
-        compared = {task for rows in at.values() for task in rows}
-        if generation < 1 or not all(at.values()) or not compared & under_way:
-            continue
+        generation, at = same
         out[shape] = {"generation": generation, "groups": {}}
         for label, rows in at.items():
             group = labelled[label]
@@ -154,6 +148,11 @@ def matched(series: dict, under_way: set[str]) -> dict:
                                            "under_way": [t for t in rows if t in under_way],
                                            **values}
     return out
+
+
+def _rows(run: RunLog) -> dict[int, int]:
+    """Every generation of a run's log (or of a cut series) -> its row."""
+    return {int(g): k for k, g in enumerate(run.log["generation"])}
 
 
 def finals(series: dict, finished: set[str]) -> dict:

@@ -215,17 +215,10 @@ def matched(found: Groups, under_way: dict[str, RunLog]) -> dict:
     comparison shows them)."""
     out = {}
     for shape, labelled in found.items():
-        if len(labelled) < 2:
+        same = same_budget(labelled, _validated, set(under_way))
+        if same is None:
             continue
-        validated = {i: _validated(run) for group in labelled.values() for i, run in group.items()}
-        furthest = [max((max(validated[i], default=-1) for i in group), default=-1)
-                    for group in labelled.values()]
-        generation = min(furthest)
-        at = {label: {i: validated[i][generation] for i in group if generation in validated[i]}
-              for label, group in labelled.items()}
-        compared = {i for rows in at.values() for i in rows}
-        if generation < 1 or not all(at.values()) or not compared & set(under_way):
-            continue
+        generation, at = same
         out[shape] = {"generation": generation, "groups": {}}
         for label, rows in at.items():
             group = labelled[label]
@@ -238,6 +231,27 @@ def matched(found: Groups, under_way: dict[str, RunLog]) -> dict:
                                                for i, k in rows.items()])),
             }
     return out
+
+
+def same_budget(labelled: dict[str, dict[str, RunLog]], rows_of,
+                under_way: set[str]) -> tuple[int, dict[str, dict[str, int]]] | None:
+    """Where a shape's groups (label -> task id -> run) compare at the same budget: the
+    furthest generation every group has reached (the least, over the groups, of the last
+    generation any of its runs has among ``rows_of(run)``: generation -> row of its log), and
+    per group the runs that reached it with their row there. None with fewer than two groups,
+    where that generation is 0 (no evolution yet), or where its compared runs have all
+    finished (none among ``under_way``)."""
+    if len(labelled) < 2:
+        return None
+    rows = {i: rows_of(run) for group in labelled.values() for i, run in group.items()}
+    generation = min(max((max(rows[i], default=-1) for i in group), default=-1)
+                     for group in labelled.values())
+    at = {label: {i: rows[i][generation] for i in group if generation in rows[i]}
+          for label, group in labelled.items()}
+    compared = {i for found in at.values() for i in found}
+    if generation < 1 or not all(at.values()) or not compared & under_way:
+        return None
+    return generation, at
 
 
 def _validated(run: RunLog) -> dict[int, int]:

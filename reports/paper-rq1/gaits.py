@@ -1,6 +1,7 @@
 """The gaits of the twelve paper-rq1 finals as `somite gait` sees them, and how their feet slide.
 
     python reports/paper-rq1/gaits.py CAMPAIGN [--terrain hilly-1-10-10000] [--out DIR]
+                                      [--runs TASK ...]
                                       (run with hilly-1-10-10000, -10001 and -10002)
 
 CAMPAIGN: the unpacked pack (``somite campaign unpack reports/paper-rq1/paper-rq1.pack --out
@@ -12,7 +13,11 @@ gets ``somite gait``'s analysis (:func:`somite.analysis.gait.analyse_gait`, the 
 ground at both ends, the share in which it moves along x faster than 1 m/s (a foot that
 slides rather than grips), and ``ground_steps``, how many there are. The JSON of each run goes
 to ``OUT/TERRAIN/EXPERIMENT-SHAPE-sSEED.json`` (default ``OUT``: ``reports/paper-rq1/gaits/``;
-kept when there) and one line a run is printed.
+kept when there) and one line a run is printed. ``--runs`` names other finished evolve tasks
+than the twelve of paper-rq1, e.g. the omega runs of ``reports/paper/``:
+
+    python reports/paper-rq1/gaits.py CAMPAIGN --out reports/paper/gaits \
+        --runs omega-10/biped-s0 omega-10/worm-s0
 """
 
 from __future__ import annotations
@@ -53,9 +58,15 @@ def main() -> None:
     parser.add_argument("campaign", type=Path)
     parser.add_argument("--terrain", default="hilly-1-10-10000")
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "gaits")
+    parser.add_argument("--runs", nargs="+", default=list(RUNS), metavar="TASK",
+                        help="finished evolve tasks (default: paper-rq1's twelve)")
     args = parser.parse_args()
+    for run in args.runs:
+        if not (args.campaign / run / "done.json").is_file():
+            parser.error(f"--runs: {run!r} has not finished in {args.campaign} "
+                         "(no done.json)")
     (args.out / args.terrain).mkdir(parents=True, exist_ok=True)
-    for run in RUNS:
+    for run in args.runs:
         target = args.out / args.terrain / f"{run.replace('/', '-')}.json"
         if not target.exists():
             target.write_text(json.dumps(gait(args.campaign / run, args.terrain), indent=1)

@@ -1,22 +1,23 @@
 """The gaits of the twelve paper-rq1 finals as `somite gait` sees them, and how their feet slide.
 
-    python reports/paper-rq1/gaits.py CAMPAIGN [--terrain hilly-1-10-10000] [--out DIR]
+    python reports/paper-rq1/gaits.py CAMPAIGN [--terrain hilly-1-10-10000 ...] [--out DIR]
                                       [--runs TASK ...]
                                       (run with hilly-1-10-10000, -10001 and -10002)
 
 CAMPAIGN: the unpacked pack (``somite campaign unpack reports/paper-rq1/paper-rq1.pack --out
 DIR``). Each final's ``best.json`` runs one episode of its run's settings (30 s, the ``paper``
-preset, noise seed 0) on ``--terrain`` (default the first validation terrain), recorded, and
+preset, noise seed 0) on each ``--terrain`` (default the first validation terrain), recorded, and
 gets ``somite gait``'s analysis (:func:`somite.analysis.gait.analyse_gait`, the numbers of
 ``somite gait RUN --terrain T --json``), in one process so that the kernel loads once. Added:
 ``sliding``, over the analysed interval, of the control steps in which a corner is on the
 ground at both ends, the share in which it moves along x faster than 1 m/s (a foot that
 slides rather than grips), and ``ground_steps``, how many there are. The JSON of each run goes
 to ``OUT/TERRAIN/EXPERIMENT-SHAPE-sSEED.json`` (default ``OUT``: ``reports/paper-rq1/gaits/``;
-kept when there) and one line a run is printed. ``--runs`` names other finished evolve tasks
+kept when there, written whole or not at all) and one line a run and terrain is printed. ``--runs`` names other finished evolve tasks
 than the twelve of paper-rq1, e.g. the omega runs of ``reports/paper/``:
 
     python reports/paper-rq1/gaits.py CAMPAIGN --out reports/paper/gaits \
+        --terrain hilly-1-10-10000 hilly-1-10-10001 hilly-1-10-10002 \
         --runs omega-10/biped-s0 omega-10/worm-s0
 """
 
@@ -56,7 +57,7 @@ def gait(run: Path, terrain: str) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("campaign", type=Path)
-    parser.add_argument("--terrain", default="hilly-1-10-10000")
+    parser.add_argument("--terrain", nargs="+", default=["hilly-1-10-10000"], metavar="TERRAIN")
     parser.add_argument("--out", type=Path, default=Path(__file__).parent / "gaits")
     parser.add_argument("--runs", nargs="+", default=list(RUNS), metavar="TASK",
                         help="finished evolve tasks (default: paper-rq1's twelve)")
@@ -65,12 +66,13 @@ def main() -> None:
         if not (args.campaign / run / "done.json").is_file():
             parser.error(f"--runs: {run!r} has not finished in {args.campaign} "
                          "(no done.json)")
-    (args.out / args.terrain).mkdir(parents=True, exist_ok=True)
-    for run in args.runs:
-        target = args.out / args.terrain / f"{run.replace('/', '-')}.json"
+    for terrain, run in ((t, r) for t in args.terrain for r in args.runs):
+        target = args.out / terrain / f"{run.replace('/', '-')}.json"
         if not target.exists():
-            target.write_text(json.dumps(gait(args.campaign / run, args.terrain), indent=1)
-                              + "\n")
+            target.parent.mkdir(parents=True, exist_ok=True)
+            partial = target.with_suffix(".json.tmp")
+            partial.write_text(json.dumps(gait(args.campaign / run, terrain), indent=1) + "\n")
+            partial.replace(target)
         g = json.loads(target.read_text())
         bottom = [v["duty_factor"] for v in g["voxels"] if v["y"] == 0]
         print(f"{run:18} v_x {g['velocity']:5.2f}  {g['frequency_hz']:5.2f} Hz  stride "

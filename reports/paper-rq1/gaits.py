@@ -13,8 +13,9 @@ gets ``somite gait``'s analysis (:func:`somite.analysis.gait.analyse_gait`, the 
 ground at both ends, the share in which it moves along x faster than 1 m/s (a foot that
 slides rather than grips), and ``ground_steps``, how many there are. The JSON of each run goes
 to ``OUT/TERRAIN/EXPERIMENT-SHAPE-sSEED.json`` (default ``OUT``: ``reports/paper-rq1/gaits/``;
-kept when there, written whole or not at all) and one line a run and terrain is printed. ``--runs`` names other finished evolve tasks
-than the twelve of paper-rq1, e.g. the omega runs of ``reports/paper/``:
+kept when there, written whole or not at all) and one line a run and terrain is printed.
+``--runs`` names other finished evolve tasks than the twelve of paper-rq1, e.g. the omega
+runs of ``reports/paper/``:
 
     python reports/paper-rq1/gaits.py CAMPAIGN --out reports/paper/gaits \
         --terrain hilly-1-10-10000 hilly-1-10-10001 hilly-1-10-10002 \
@@ -29,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from somite._io import write_atomic
 from somite.analysis.gait import analyse_gait
 from somite.brain.genome import Genome
 from somite.experiments.config import resolve
@@ -66,19 +68,22 @@ def main() -> None:
         if not (args.campaign / run / "done.json").is_file():
             parser.error(f"--runs: {run!r} has not finished in {args.campaign} "
                          "(no done.json)")
-    for terrain, run in ((t, r) for t in args.terrain for r in args.runs):
-        target = args.out / terrain / f"{run.replace('/', '-')}.json"
-        if not target.exists():
-            target.parent.mkdir(parents=True, exist_ok=True)
-            partial = target.with_suffix(".json.tmp")
-            partial.write_text(json.dumps(gait(args.campaign / run, terrain), indent=1) + "\n")
-            partial.replace(target)
-        g = json.loads(target.read_text())
-        bottom = [v["duty_factor"] for v in g["voxels"] if v["y"] == 0]
-        print(f"{run:18} v_x {g['velocity']:5.2f}  {g['frequency_hz']:5.2f} Hz  stride "
-              f"{g['stride_frequency_hz']:5.2f} Hz  bottom duty {min(bottom):.2f}-"
-              f"{max(bottom):.2f}  sliding {g['sliding']:.2f}  {g['pattern']}: "
-              f"{g['description']}", flush=True)
+    for terrain in args.terrain:
+        (args.out / terrain).mkdir(parents=True, exist_ok=True)
+        for run in args.runs:
+            show(args.campaign, run, terrain, args.out / terrain / f"{run.replace('/', '-')}.json")
+
+
+def show(campaign: Path, run: str, terrain: str, target: Path) -> None:
+    """Print ``run``'s gait line on ``terrain``, analysing it into ``target`` unless there."""
+    if not target.exists():
+        write_atomic(target, json.dumps(gait(campaign / run, terrain), indent=1) + "\n")
+    g = json.loads(target.read_text())
+    bottom = [v["duty_factor"] for v in g["voxels"] if v["y"] == 0]
+    print(f"{run:18} {terrain}  v_x {g['velocity']:5.2f}  {g['frequency_hz']:5.2f} Hz  stride "
+          f"{g['stride_frequency_hz']:5.2f} Hz  bottom duty {min(bottom):.2f}-"
+          f"{max(bottom):.2f}  sliding {g['sliding']:.2f}  {g['pattern']}: "
+          f"{g['description']}", flush=True)
 
 
 if __name__ == "__main__":

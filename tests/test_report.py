@@ -176,7 +176,18 @@ def test_rho_and_eta_are_those_of_the_task_folders(campaign, report):
         assert sorted(groups["omega 1"]["values"]) == sorted(etas)
         assert set(groups) == {"omega 0.1", "omega 1", "omega 10"}
     assert set(data["figure7"]["curves"]["worm"]) == {"homogeneous", "heterogeneous"}
-    assert data["rq3_reassembly"]["curves"]["biped"]["discovered modules"]["tasks"]
+    for shape in ("biped", "worm"):
+        # The fixture reassembles rq1's s0+s1 along the discovered modules: beside it, of
+        # Figure 7's three homogeneous pairs, the one with the same donors.
+        groups = data["rq3_reassembly"]["curves"][shape]
+        assert set(groups) == {"discovered modules", "paper partition, same donors"}
+        assert groups["discovered modules"]["tasks"] == [f"rq3-reassembly/{shape}-s0+s1-reopt"]
+        beside = groups["paper partition, same donors"]
+        assert beside["tasks"] == [f"rq2-homo/{shape}-s0+s1-reopt"]
+        homogeneous = data["figure7"]["curves"][shape]["homogeneous"]
+        same = homogeneous["tasks"].index(beside["tasks"][0])
+        assert beside["end"] == [homogeneous["end"][same]]
+        assert len(data["rq3_reassembly"]["end"][shape]["tests"]) == 1
 
 
 def test_the_cuts_during_evolution_are_those_of_each_runs_bests(campaign, report):

@@ -436,7 +436,8 @@ OWN_NAMES = {"rq1": "graph", "ablation": "fixed-topology", "rq2-homo": "swap",
              "rq2-hetero": "cross-swap"}
 OWN_FIGURES = {"graph": {"table1": "", "figure3": "graph", "figure5": "topology + weights"},
                "fixed-topology": {"figure5": "weights only"},
-               "swap": {"figure7": "same shape"}, "cross-swap": {"figure7": "other shape"}}
+               "swap": {"figure7": "same shape"}, "cross-swap": {"figure7": "other shape"},
+               "rq3-reassembly": {"discovered": "compact modules"}}
 
 
 def _renamed(value):
@@ -465,7 +466,7 @@ def _report_again(copy, doc: dict, report, tmp_path):
 def test_a_campaign_of_its_own_names_gets_the_figures_it_declares(campaign, report, tmp_path):
     """The finished campaign with its experiments renamed and declaring their figures, as a
     user's TOML campaign writes campaign.json: the figures it declares are drawn from them,
-    and one line names those no experiment feeds (no omega experiments, no discovery's)."""
+    and one line names those no experiment feeds (no omega experiments)."""
     copy = tmp_path / "campaign"
     shutil.copytree(campaign, copy)
     for old, new in OWN_NAMES.items():
@@ -482,15 +483,19 @@ def test_a_campaign_of_its_own_names_gets_the_figures_it_declares(campaign, repo
         assert data["figure5"]["one_sided"][shape]["logged"]["p"] == first["figure5"][
             "one_sided"][shape]["logged"]["p"]
         assert set(data["figure7"]["curves"][shape]) == {"same shape", "other shape"}
+        # Its homogeneous reassembly of the same donors sits beside the discovered modules,
+        # whatever Figure 7 calls it.
+        beside = data["rq3_reassembly"]["curves"][shape]
+        assert set(beside) == {"compact modules", "paper partition, same donors"}
+        assert beside["paper partition, same donors"]["tasks"] == [f"swap/{shape}-s0+s1-reopt"]
     rows = {(r["experiment"], r["shape"]): r for r in data["table1"]}
     assert rows["graph", "worm"]["paper"]["final"]["size"]["value"] == 216.0
     assert rows["fixed-topology", "worm"]["paper"] is None
-    assert set(data["figures"]["missing"]) == {"figure10", "figure8", "discovered"}
+    assert set(data["figures"]["missing"]) == {"figure10", "figure8"}
     assert data["figure10"]["curves"] == {} and data["figure9"]["eta"] == {}
     text = (out / "index.md").read_text()
     [line] = [line for line in text.splitlines() if line.startswith("Figures no experiment")]
     assert "figure10: no evolve experiment declares it" in line
-    assert "discovered: no reassemble experiment declares it" in line
     assert "Figures no experiment" not in (report[0] / "index.md").read_text()
 
 

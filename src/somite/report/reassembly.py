@@ -161,8 +161,9 @@ the same donor pairs, cut along the paper's partition instead."""
 
 def discovered_or_paper_label(campaign: CampaignFolder, rows: list[dict]):
     """A row's group in the discovered modules' figure: the discovered modules' label, or
-    :data:`PAPER_PARTITION` for a Figure 7 homogeneous row whose donors are those of a
-    reassembly along discovered modules, so that both partitions of one pair sit side by side."""
+    :data:`PAPER_PARTITION` for a homogeneous reassembly of Figure 7 (whatever the campaign
+    labels it there) whose donors are those of a reassembly along discovered modules, so that
+    both partitions of one pair sit side by side."""
     discovered, homogeneous = discovered_label(campaign), figure7_label(campaign)
 
     def donors(row: dict) -> frozenset[str]:
@@ -177,7 +178,8 @@ def discovered_or_paper_label(campaign: CampaignFolder, rows: list[dict]):
         found = discovered(row)
         if found is not None:
             return found
-        if homogeneous(row) == "homogeneous" and donors(row) in pairs:
+        if (homogeneous(row) is not None and row.get("kind") == "homogeneous"
+                and donors(row) in pairs):
             return PAPER_PARTITION
         return None
     return label

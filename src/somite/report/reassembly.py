@@ -335,7 +335,7 @@ def render_discovered(report: dict) -> list[str]:
                   "reassemblies of Figure 7 with the same donor pairs, cut along the paper's "
                   "partition; the test compares the two partitions' rho at the end.", ""]
     lines += _rho_table(data)
-    return lines + images(report["rq3_reassembly"]["files"], "rho along discovered modules")
+    return lines + images(data["files"], "rho along discovered modules")
 
 
 SECTION = Section(build, render)
